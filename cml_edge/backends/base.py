@@ -1,0 +1,152 @@
+"""The synaptic-array protocol: everything the CML does to a weight matrix.
+
+An array of shape (rows, cols) stores a weight matrix W in whatever form its device
+keeps it (floats, integer mantissas, conductance pairs) and offers ``matvec``,
+``rmatvec``, ``outer_update``, ``commit``, ``to_float``, ``counters`` and an exact
+``state_dict`` round trip. Its whole mutable state is one ``NamedTuple`` of NumPy
+arrays (``self.state``); its arithmetic is the four ``@njit`` kernels it registered
+with :mod:`cml_edge.kernels.dispatch`, which the Python methods below and the
+compiled loops both call, so the two paths cannot disagree.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, ClassVar
+
+import numpy as np
+
+from cml_edge.kernels.dispatch import kernels_for
+
+
+class SynapticArray:
+    """Base class of the synaptic arrays (the seam of DESIGN.md).
+
+    Subclasses set ``name``, ``State`` (a NamedTuple class whose first field is a
+    (rows, cols) array, which gives the shape, and whose last field is ``counters``, an
+    int64 vector indexed like ``counter_names``), implement ``from_float``,
+    ``to_float`` and ``options``, and register their five kernels
+    (:class:`cml_edge.kernels.dispatch.Kernels`). Optional: ``elapse`` (drift),
+    ``add_cli_arguments(group)`` / ``cli_options(args)`` classmethods for the
+    backend's own command-line options.
+    """
+
+    name: ClassVar[str]
+    State: ClassVar[type]
+    counter_names: ClassVar[tuple[str, ...]]
+
+    def __init__(self, state: Any) -> None:
+        self.state = state
+        self._kernels = kernels_for(type(state))
+
+    # construction -----------------------------------------------------------------
+    @classmethod
+    def from_float(cls, W: np.ndarray, *, seed: int, index: int, **options: Any) -> SynapticArray:
+        """Program the float matrix ``W`` into a new array (``index`` names its RNG stream)."""
+        raise NotImplementedError
+
+    def options(self) -> dict[str, Any]:
+        """The JSON-serialisable options that, with the state arrays, rebuild this array."""
+        raise NotImplementedError
+
+    # the seam -----------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        return tuple(self.state[0].shape)  # type: ignore[return-value]
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        """W x, as the device reads it."""
+        out = np.zeros(self.shape[0])
+        self._kernels.matvec(self.state, _vector(x, self.shape[1]), out)
+        return out
+
+    def rmatvec(self, y: np.ndarray) -> np.ndarray:
+        """W^T y, read from the same stored weights (planning's transposed read)."""
+        out = np.zeros(self.shape[1])
+        self._kernels.rmatvec(self.state, _vector(y, self.shape[0]), out)
+        return out
+
+    def outer_update(self, post: np.ndarray, pre: np.ndarray, lr: float,
+                     defer: bool = True) -> None:
+        """The local rule W += lr * post pre^T, in place, now or at ``commit`` (Eqs. 1-3)."""
+        self._kernels.outer_update(
+            self.state, _vector(post, self.shape[0]), _vector(pre, self.shape[1]), float(lr),
+            bool(defer),
+        )
+
+    def commit(self) -> None:
+        """Apply the updates accumulated with ``defer=True`` (end of a walk)."""
+        self._kernels.commit(self.state)
+
+    def sigmoid(self, z: np.ndarray) -> np.ndarray:
+        """sigmoid(z) as this device's neurons compute it (the affordance, paper 2.1)."""
+        out = np.zeros(len(z))
+        self._kernels.sigmoid(self.state, _vector(z, len(z)), out)
+        return out
+
+    def elapse(self, seconds: float) -> None:
+        """Let ``seconds`` pass with no reads or writes (retention, drift). Default: no change."""
+
+    def to_float(self) -> np.ndarray:
+        """The effective weights as float64 (analysis, checkpoints)."""
+        raise NotImplementedError
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """What the device did so far, by counter name."""
+        return {k: int(v) for k, v in zip(self.counter_names, self.state.counters)}
+
+    def reset_counters(self) -> None:
+        self.state.counters[:] = 0
+
+    # persistence ------------------------------------------------------------------
+    def state_dict(self) -> dict[str, np.ndarray]:
+        """Every state array, plus the backend name and options, for an exact restore."""
+        d = {f: np.array(getattr(self.state, f)) for f in self.State._fields}
+        d["__backend__"] = np.array(self.name)
+        d["__options__"] = np.array(json.dumps(self.options(), sort_keys=True))
+        return d
+
+    @classmethod
+    def from_state_dict(cls, d: dict[str, np.ndarray]) -> SynapticArray:
+        """Rebuild an array saved by ``state_dict``; raises ValueError on anything foreign."""
+        backend = str(d.get("__backend__", ""))
+        if backend != cls.name:
+            raise ValueError(f"state is of backend {backend!r}, expected {cls.name!r}")
+        missing = [f for f in cls.State._fields if f not in d]
+        if missing:
+            raise ValueError(f"state of backend {cls.name!r} lacks {', '.join(missing)}")
+        template = cls._template(json.loads(str(d["__options__"])), d["counters"].shape)
+        fields = []
+        for f in cls.State._fields:
+            a, t = np.asarray(d[f]), getattr(template, f)
+            if a.dtype != t.dtype or a.ndim != t.ndim:
+                raise ValueError(
+                    f"field {f!r}: {a.dtype}[{a.ndim}d] where {t.dtype}[{t.ndim}d] is expected"
+                )
+            fields.append(np.ascontiguousarray(a.copy()))
+        state = cls.State(*fields)
+        if state.counters.shape != (len(cls.counter_names),):
+            raise ValueError(f"counters: {state.counters.shape[0]} where "
+                             f"{len(cls.counter_names)} are expected")
+        shape = state[0].shape
+        for f, a in zip(cls.State._fields, state):
+            if a.ndim == 2 and a.shape != shape:
+                raise ValueError(f"field {f!r} has shape {a.shape}, expected {shape}")
+        return cls._restore(state, json.loads(str(d["__options__"])))
+
+    @classmethod
+    def _template(cls, options: dict[str, Any], counters_shape: tuple[int, ...]) -> Any:
+        """A tiny state of the right dtypes, to validate a loaded one against."""
+        return cls.from_float(np.zeros((1, 1)), seed=0, index=0, **options).state
+
+    @classmethod
+    def _restore(cls, state: Any, options: dict[str, Any]) -> SynapticArray:
+        return cls(state)
+
+
+def _vector(x: np.ndarray, n: int) -> np.ndarray:
+    v = np.ascontiguousarray(x, dtype=np.float64)
+    if v.shape != (n,):
+        raise ValueError(f"expected a vector of length {n}, got shape {v.shape}")
+    return v

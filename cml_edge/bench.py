@@ -1,0 +1,80 @@
+"""Speed of the training and planning loops (``cml-edge bench``): figures, not assertions.
+
+Each figure is the median over ``repeats`` timed runs after a compiling warm-up run:
+
+- ``train_step_us_random`` / ``train_step_us_mixed``: one training step (exploration
+  and the local rule) of the direct compiled loop, averaged over the paper's whole
+  100 x 900-step training, as the paper's Table 3 averages;
+- ``plan_step_us``: one planning step of the direct loop, over the protocol's 100 pairs;
+- for the float64 array also ``train_step_us_factored``, ``plan_step_us_factored`` and
+  ``train_total_s_factored`` (the whole 100 x 900 training).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable, Sequence
+
+from cml_edge.arena import GridArena
+from cml_edge.cml import CML
+from cml_edge.evaluation import EVAL_SEED
+from cml_edge.metrics import draw_pairs
+from cml_edge.planning import plan
+from cml_edge.training import TrainConfig, train
+
+WALKS, STEPS = 100, 900
+
+
+def _median_time(run: Callable[[int], float], repeats: int) -> float:
+    run(-1)  # compile and warm up
+    return statistics.median(run(r) for r in range(repeats))
+
+
+def bench_backend(name: str, repeats: int = 5) -> dict[str, float]:
+    """The figures of one backend (see the module docstring)."""
+    arena = GridArena.empty(30)
+    pairs = draw_pairs(arena, 100, EVAL_SEED)
+    full = {e: TrainConfig(WALKS, STEPS, e) for e in ("random", "mixed")}
+    warm = {e: TrainConfig(1, 50, e) for e in ("random", "mixed")}
+    out: dict[str, float] = {}
+    paths = ["direct"]
+    if getattr(CML.create(backend=name).W_q, "supports_factored", False):
+        paths.append("factored")
+    for path in paths:
+        suffix = "" if path == "direct" else "_factored"
+        explores = ("random", "mixed") if path == "direct" else ("random",)
+        for explore in explores:
+            def run_train(r: int, explore: str = explore, path: str = path) -> float:
+                config = warm[explore] if r < 0 else full[explore]
+                cml = CML.create(backend=name, seed=max(r, 0))
+                t0 = time.perf_counter()
+                train(cml, arena, config, seed=max(r, 0), path=path, epoch=config.walks)
+                return (time.perf_counter() - t0) / (config.walks * config.steps)
+
+            key = f"train_step_us_{explore}" if path == "direct" else "train_step_us_factored"
+            per_step = _median_time(run_train, repeats)
+            out[key] = per_step * 1e6
+            if path == "factored":
+                out["train_total_s_factored"] = per_step * WALKS * STEPS
+        model = CML.create(backend=name, seed=0)
+        train(model, arena, full["random"], seed=0, path=path)
+
+        def run_plan(r: int, path: str = path, model: CML = model) -> float:
+            t0 = time.perf_counter()
+            res = plan(model, arena, pairs.starts, pairs.goals, path=path)
+            return (time.perf_counter() - t0) / max(int(res.steps.sum()), 1)
+
+        out[f"plan_step_us{suffix}"] = _median_time(run_plan, repeats) * 1e6
+    return out
+
+
+def run_bench(names: Sequence[str], repeats: int = 5,
+              progress: Callable[[int, int], None] | None = None) -> dict[str, object]:
+    """``{"backends": {name: figures}}`` for each backend named."""
+    result: dict[str, dict[str, float]] = {}
+    for i, name in enumerate(names):
+        result[name] = bench_backend(name, repeats)
+        if progress is not None:
+            progress(i + 1, len(names))
+    return {"backends": result, "repeats": repeats, "walks": WALKS, "steps": STEPS}

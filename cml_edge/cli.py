@@ -1,0 +1,338 @@
+"""The ``cml-edge`` command (DESIGN.md, "Command line contract").
+
+Bad input gets one line on stderr naming the value and what is allowed, exit status
+2, no traceback, and nothing written. ``--json`` prints one JSON object on stdout and
+nothing else there; progress goes to stderr, only on a terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__
+from cml_edge.arena import GridArena
+from cml_edge.backends import BACKENDS, backend_spec
+from cml_edge.cml import CML, UTILITIES, CMLConfig
+from cml_edge.evaluation import EVAL_SEED, evaluate_model, run_protocol
+from cml_edge.exploration import EXPLORATIONS
+from cml_edge.learning import SCHEDULES
+from cml_edge.metrics import Pairs, draw_pairs, geodesic_distances
+from cml_edge.planning import MAX_STEPS, plan
+from cml_edge.storage import ModelFileError, atomic_write, load_model, save_model
+from cml_edge.training import PATHS, TrainConfig, train
+
+
+class InputError(ValueError):
+    """Bad command-line input: reported as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2, as for every bad input
+        raise InputError(message)
+
+
+# argument types -------------------------------------------------------------------
+def _int(lo: int, what: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}")
+        return value
+
+    return parse
+
+
+positive_int = _int(1, ">= 1")
+nonneg_int = _int(0, ">= 0")
+arena_size = _int(2, ">= 2 (the arena side)")
+
+
+def finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+# progress -----------------------------------------------------------------------
+class Progress:
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.on = sys.stderr.isatty()
+        self.t0 = time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.on:
+            return
+        width = 30
+        filled = int(width * done / max(total, 1))
+        elapsed = time.perf_counter() - self.t0
+        sys.stderr.write(f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] "
+                         f"{done}/{total} {elapsed:5.1f}s")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+# shared options -------------------------------------------------------------------
+def _add_backend(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--backend", default="float",
+                   help=f"synaptic array: {', '.join(sorted(BACKENDS))} (default float)")
+    seen: set[type] = set()
+    for spec in BACKENDS.values():
+        cls = spec.array_class
+        if cls not in seen and hasattr(cls, "add_cli_arguments"):
+            seen.add(cls)
+            cls.add_cli_arguments(p.add_argument_group(f"{cls.name} array options"))
+
+
+def _backend_options(args: argparse.Namespace) -> dict[str, Any]:
+    spec = backend_spec(args.backend)
+    cls = spec.array_class
+    return cls.cli_options(args) if hasattr(cls, "cli_options") else {}
+
+
+def _add_training(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--arena", type=arena_size, default=30, help="arena side (default 30)")
+    p.add_argument("--walks", type=positive_int, default=100, help="exploration walks (100)")
+    p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")
+    p.add_argument("--explore", choices=EXPLORATIONS, default="random",
+                   help="exploration strategy (random)")
+    p.add_argument("--schedule", choices=SCHEDULES, default="walk",
+                   help="walk: updates summed over a walk, applied at its end (the paper); "
+                        "step: applied in place every step")
+    p.add_argument("--utility", choices=UTILITIES, default="normalized",
+                   help="planning utility: W_v columns normalised (default) or raw")
+    p.add_argument("--path", choices=PATHS, default=None,
+                   help="compute path: factored (float fast path), direct (compiled, through "
+                        "the array), reference (plain Python); default factored for float "
+                        "with the walk schedule, else direct")
+
+
+def _add_eval(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--obstacles", type=nonneg_int, default=0,
+                   help="point obstacles placed at evaluation only (0)")
+    p.add_argument("--trials", type=positive_int, default=100, help="(start, goal) pairs (100)")
+    p.add_argument("--max-steps", type=positive_int, default=MAX_STEPS,
+                   help="planning step budget (100)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="cml-edge", description="Cognitive Map Learner navigation on "
+                     "emulated neuromorphic synaptic arrays.")
+    parser.add_argument("--version", action="version", version=f"cml-edge {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("train", help="train one CML and save it")
+    _add_training(p)
+    _add_backend(p)
+    p.add_argument("--seed", type=nonneg_int, default=0, help="model seed (0)")
+    p.add_argument("--out", required=True, help="model file to write (.npz)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+    p = sub.add_parser("evaluate", help="evaluate a saved model on fixed (start, goal) pairs")
+    p.add_argument("model", help="model file (.npz)")
+    p.add_argument("--arena", type=arena_size, default=None,
+                   help="arena side (default: the training arena)")
+    _add_eval(p)
+    p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED,
+                   help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
+    p.add_argument("--path", choices=PATHS, default=None, help="compute path (see train)")
+
+    p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
+    p.add_argument("model", help="model file (.npz)")
+    p.add_argument("--start", type=int, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--goal", type=int, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--arena", type=arena_size, default=None,
+                   help="arena side (default: the training arena)")
+    p.add_argument("--obstacles", type=nonneg_int, default=0, help="point obstacles (0)")
+    p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED, help="obstacle seed")
+    p.add_argument("--max-steps", type=positive_int, default=MAX_STEPS)
+    p.add_argument("--plot", help="write a PNG of the arena and the path")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+    p = sub.add_parser("emulate", help="train and evaluate models on a synaptic array "
+                       "(the evaluation protocol)")
+    _add_training(p)
+    _add_backend(p)
+    _add_eval(p)
+    p.add_argument("--seeds", type=positive_int, default=10, help="models, seeds 0..N-1 (10)")
+    p.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
+                   help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
+    p.add_argument("--drift-time", type=finite_float, default=0.0, metavar="T",
+                   help="seconds between the end of training and evaluation; arrays that "
+                        "drift (crossbar) apply it (0)")
+    p.add_argument("--out", help="also write the JSON result to this file")
+
+    p = sub.add_parser("bench", help="time the training and planning loops")
+    p.add_argument("--backends", nargs="+", default=None,
+                   help="backends to time (default: all registered)")
+    p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    return parser
+
+
+# commands -------------------------------------------------------------------------
+def _default_path(backend: str, schedule: str, path: str | None) -> str:
+    if path is not None:
+        return path
+    factored_ok = backend == "float" and schedule == "walk"
+    return "factored" if factored_ok else "direct"
+
+
+def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    options = _backend_options(args)
+    path = _default_path(args.backend, args.schedule, args.path)
+    config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    cml = CML.create(CMLConfig.for_arena(args.arena, utility=args.utility), args.backend,
+                     args.seed, **options)
+    arena = GridArena.empty(args.arena)
+    t0 = time.perf_counter()
+    bar = Progress("train")
+    errors = train(cml, arena, config, args.seed, path=path,
+                   on_epoch=lambda done: bar(done, config.walks))
+    record = {"arena": args.arena, "walks": args.walks, "steps": args.steps,
+              "explore": args.explore, "schedule": args.schedule, "seed": args.seed,
+              "path": path, "backend_options": options, "train_error": errors.tolist(),
+              "wall_time_s": time.perf_counter() - t0, "cml_edge_version": __version__,
+              "command": "cml-edge " + " ".join(sys.argv[1:])}
+    save_model(args.out, cml, record)
+    return {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
+        "arena", "walks", "steps", "explore", "schedule", "seed", "path", "wall_time_s")},
+        "final_train_error": float(errors[-1]), "counters": cml.counters()}
+
+
+def _load(path: str) -> tuple[CML, dict[str, Any]]:
+    return load_model(path)
+
+
+def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
+    size = args.arena if args.arena is not None else int(record.get("arena", 30))
+    if args.obstacles:
+        return GridArena.with_obstacles(size, args.obstacles, args.seed)
+    return GridArena.empty(size)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    cml, record = _load(args.model)
+    arena = _eval_arena(args, record)
+    pairs = draw_pairs(arena, args.trials, args.seed)
+    path = _default_path(cml.backend, "walk", args.path)
+    result = evaluate_model(cml, arena, pairs, path=path, max_steps=args.max_steps)
+    return {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
+            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
+            "path": path}
+
+
+def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
+    cml, record = _load(args.model)
+    arena = _eval_arena(args, record)
+    for name, pos in (("start", args.start), ("goal", args.goal)):
+        if not arena.contains(pos):
+            raise InputError(f"--{name} {pos[0]} {pos[1]} is off the {arena.size} x "
+                             f"{arena.size} arena (allowed: 0..{arena.size - 1})")
+        if not arena.is_free(pos):
+            raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
+    starts, goals = np.array([args.start]), np.array([args.goal])
+    res = plan(cml, arena, starts, goals, max_steps=args.max_steps,
+               path=_default_path(cml.backend, "walk", None))
+    steps = int(res.steps[0])
+    trajectory = res.paths[0, : steps + 1]
+    pairs = Pairs(starts, goals, np.abs(starts - goals).max(1),
+                  geodesic_distances(arena, starts, goals))
+    final = res.final[0]
+    out = {"start": list(args.start), "goal": list(args.goal), "final": final.tolist(),
+           "steps": steps, "reached": bool((final == goals[0]).all()),
+           "e_pos": float(np.linalg.norm(final - goals[0])),
+           "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
+           "path": trajectory.tolist()}
+    if args.plot:
+        from cml_edge.plots import plot_navigation
+
+        plot_navigation(args.plot, arena, trajectory, args.start, args.goal)
+        out["plot"] = args.plot
+    return out
+
+
+def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
+    if args.drift_time < 0:
+        raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
+    options = _backend_options(args)
+    config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    path = args.path or "direct"
+    result = run_protocol(args.backend, range(args.seeds), args.trials, args.arena,
+                          args.obstacles, config,
+                          CMLConfig.for_arena(args.arena, utility=args.utility),
+                          eval_seed=args.eval_seed, path=path, idle_s=args.drift_time,
+                          progress=Progress(f"emulate {args.backend}"), **options)
+    result["command"] = "cml-edge " + " ".join(sys.argv[1:])
+    result["cml_edge_version"] = __version__
+    if args.out:
+        atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
+    return result
+
+
+def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.bench import run_bench
+
+    names = args.backends or sorted(BACKENDS)
+    for name in names:
+        backend_spec(name)
+    return run_bench(names, repeats=args.repeats, progress=Progress("bench"))
+
+
+COMMANDS = {"train": cmd_train, "evaluate": cmd_evaluate, "navigate": cmd_navigate,
+            "emulate": cmd_emulate, "bench": cmd_bench}
+
+
+def _print_human(command: str, result: dict[str, Any]) -> None:
+    skip = {"per_seed", "curve_e_pos_mean", "train_error", "path", "seed_list", "counters"}
+    for k, v in result.items():
+        if k in skip and command != "navigate" or isinstance(v, dict):
+            continue
+        if isinstance(v, float):
+            v = f"{v:.4f}"
+        print(f"{k:>24}: {v}")
+    for group in ("counters", "backends"):
+        if isinstance(result.get(group), dict):
+            print(f"{group}:")
+            for k, v in result[group].items():
+                print(f"{k:>24}: {v}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        result = COMMANDS[args.command](args)
+    except (InputError, ModelFileError, ValueError) as exc:
+        print(f"cml-edge: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("cml-edge: interrupted", file=sys.stderr)
+        return 130
+    if getattr(args, "json", False):
+        print(json.dumps(result))
+    else:
+        _print_human(args.command, result)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

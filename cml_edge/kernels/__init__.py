@@ -1,0 +1,1 @@
+"""Numba kernels: the counter-based RNG and the synaptic-array dispatch used in compiled loops."""

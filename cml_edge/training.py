@@ -1,0 +1,309 @@
+"""Training: exploration walks with the local rule, on three paths that agree.
+
+- ``reference``: plain Python, one array call per operation (:mod:`cml_edge.learning`);
+- ``direct``: the same operations as one compiled Numba loop, the backend's kernels
+  compiled in through the seam (:mod:`cml_edge.kernels.dispatch`); bit-identical to
+  the reference, and what device arrays emulate operation by operation;
+- ``factored``: the exact shortcut for float64 arrays under the per-walk schedule.
+
+The factored form. Within a walk the weights are frozen and s_t = W_q o_t, so
+W_k s_t = (W_k W_q) o_t, and the walk's summed updates factor through accumulators of
+size N_a x N_i, N_i x N_a, N_a, N_i x N_i and N_a x N_i (60 numbers for the paper's
+sizes):
+
+    A = sum (a_t - g_t) o_t^T     dW_k = lr_k A W_q^T
+    B = sum (o_{t+1} - o_t) a_t^T, n = sum a_t
+                                  dW_v = lr_v (W_q B - W_v diag(n))
+    C = sum (o_{t+1} - o_t) o_{t+1}^T, D = sum a_t o_{t+1}^T
+                                  dW_q = lr_q (W_v D - W_q C)
+
+It is exact algebra, not an approximation: the weights agree with the direct loop to
+rounding (tests: relative 1e-12). Exploration consumes the same random numbers on
+every path, so the walks themselves are identical.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from cml_edge.arena import MOVES, N_ACTIONS, GridArena
+from cml_edge.cml import CML
+from cml_edge.exploration import (
+    K_NEAREST,
+    N_EXPL_FRACTION,
+    VisitedSet,
+    choose_action,
+    choose_action_reference,
+    explore_code,
+    nth_free_cell,
+    threshold,
+)
+from cml_edge.kernels.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_sigmoid
+from cml_edge.kernels.rng import STREAM_EXPLORE, STREAM_WALK_START, randint, stream_key
+from cml_edge.learning import end_walk, learn_step, schedule_defers
+
+PATHS = ("reference", "direct", "factored")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """The paper's protocol by default: 100 walks x 900 steps, random, per-walk updates."""
+
+    walks: int = 100
+    steps: int = 900
+    explore: str = "random"
+    schedule: str = "walk"
+
+    def __post_init__(self) -> None:
+        for name in ("walks", "steps"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or int(v) != v or v < 1:
+                raise ValueError(f"{name} {v!r} is not a positive integer")
+        explore_code(self.explore)
+        schedule_defers(self.schedule)
+
+    @property
+    def n_expl(self) -> int:
+        """N_expl = 0.3 x walks (paper 2.2)."""
+        return int(round(N_EXPL_FRACTION * self.walks))
+
+
+class Explorer:
+    """Exploration state that persists across walks: the visited cells (Eq. 4)."""
+
+    def __init__(self, arena: GridArena) -> None:
+        self.free = arena.free
+        self.visited = np.zeros_like(self.free)
+        self.n_visited = np.zeros(1, dtype=np.int64)
+        self.reference = VisitedSet()
+
+
+def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str = "direct",
+          epoch: int = 10, on_epoch: Callable[[int], None] | None = None) -> np.ndarray:
+    """Train ``cml`` in place; returns the mean training error ||e_t|| of each walk.
+
+    ``on_epoch(walks_done)`` is called every ``epoch`` walks and at the end (the
+    paper evaluates every 10 walks).
+    """
+    if path not in PATHS:
+        raise ValueError(f"unknown path {path!r}; allowed: {', '.join(PATHS)}")
+    defer = schedule_defers(config.schedule)
+    if path == "factored" and not (defer and all(
+            getattr(a, "supports_factored", False) for a in cml.arrays)):
+        raise ValueError("the factored path needs float64 arrays and the per-walk schedule")
+    explorer = Explorer(arena)
+    errors = np.zeros(config.walks)
+    done = 0
+    while done < config.walks:
+        stop = min(done + epoch, config.walks)
+        _train_walks(cml, explorer, config, seed, path, defer, done, stop, errors)
+        done = stop
+        if on_epoch is not None:
+            on_epoch(done)
+    return errors
+
+
+def _train_walks(cml, explorer, config, seed, path, defer, w0, w1, errors):
+    c = cml.config
+    args = (explorer.free, explorer.visited, explorer.n_visited, c.obs_origin, c.obs_scale, w0, w1,
+            config.steps, config.n_expl, explore_code(config.explore), c.lr_q, c.lr_k, c.lr_v,
+            int(seed), errors)
+    if path == "direct":
+        train_direct(cml.W_q.state, cml.W_k.state, cml.W_v.state, defer, *args)
+    elif path == "factored":
+        train_factored(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W, *args)
+    else:
+        train_reference(cml, explorer, config, seed, defer, w0, w1, errors)
+
+
+def train_reference(cml: CML, explorer: Explorer, config: TrainConfig, seed: int, defer: bool,
+                    w0: int, w1: int, errors: np.ndarray) -> None:
+    """Walks w0..w1-1 in plain Python: the readable statement of the training loop."""
+    start_key = stream_key(seed, STREAM_WALK_START)
+    key = stream_key(seed, STREAM_EXPLORE)
+    code = explore_code(config.explore)
+    n_free = int(explorer.free.sum())
+    visited = explorer.reference
+    for w in range(w0, w1):
+        x, y = nth_free_cell(explorer.free, randint(start_key, w, n_free))
+        visited.add(x, y)
+        t_expl = threshold(w, config.n_expl)
+        total = 0.0
+        for t in range(config.steps):
+            a = choose_action_reference(code, explorer.free, visited, x, y, t_expl, key,
+                                        w * config.steps + t)
+            nx, ny = x + MOVES[a, 0], y + MOVES[a, 1]
+            total += learn_step(cml, cml.observe((x, y)), cml.observe((nx, ny)), a, defer)
+            x, y = int(nx), int(ny)
+            visited.add(x, y)
+        end_walk(cml, defer)
+        errors[w] = total / config.steps
+
+
+@njit(cache=True)
+def _visit(visited, n_visited, x, y):
+    if not visited[x, y]:
+        visited[x, y] = 1
+        n_visited[0] += 1
+
+
+@njit(cache=True)
+def train_direct(q, k, v, defer, free, visited, n_visited, origin, scale, w0, w1, steps, n_expl,
+                 explore, lr_q, lr_k, lr_v, seed, errors):
+    """The compiled twin of :func:`train_reference`, through the synaptic-array seam."""
+    n_s = q[0].shape[0]
+    n_i = q[0].shape[1]
+    n_a = k[0].shape[0]
+    o_t = np.zeros(n_i)
+    o_1 = np.zeros(n_i)
+    d_o = np.zeros(n_i)
+    s = np.zeros(n_s)
+    ds = np.zeros(n_s)
+    va = np.zeros(n_s)
+    e = np.zeros(n_s)
+    neg_e = np.zeros(n_s)
+    z = np.zeros(n_a)
+    g = np.zeros(n_a)
+    post_k = np.zeros(n_a)
+    action = np.zeros(n_a)
+    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
+    novelty = np.zeros(N_ACTIONS)
+    best = np.zeros(K_NEAREST)
+    start_key = stream_key(seed, STREAM_WALK_START)
+    key = stream_key(seed, STREAM_EXPLORE)
+    n_free = 0
+    for cx in range(free.shape[0]):
+        for cy in range(free.shape[1]):
+            n_free += free[cx, cy]
+    for w in range(w0, w1):
+        x, y = nth_free_cell(free, randint(start_key, w, n_free))
+        _visit(visited, n_visited, x, y)
+        t_expl = threshold(w, n_expl)
+        total = 0.0
+        for t in range(steps):
+            a = choose_action(explore, free, visited, n_visited[0], x, y, t_expl, key,
+                              w * steps + t, mask, novelty, best)
+            nx = x + MOVES[a, 0]
+            ny = y + MOVES[a, 1]
+            o_t[0] = (x - origin) / scale
+            o_t[1] = (y - origin) / scale
+            o_1[0] = (nx - origin) / scale
+            o_1[1] = (ny - origin) / scale
+            for i in range(n_a):
+                action[i] = 0.0
+            action[a] = 1.0
+            sa_matvec(q, o_t, s)  # s_t = W_q o_t
+            sa_matvec(k, s, z)
+            sa_sigmoid(k, z, g)  # g_t = sigmoid(W_k s_t)
+            for i in range(n_i):
+                d_o[i] = o_1[i] - o_t[i]
+            sa_matvec(q, d_o, ds)  # s_{t+1} - s_t
+            sa_matvec(v, action, va)  # W_v a_t
+            sq = 0.0
+            for i in range(n_s):
+                e[i] = ds[i] - va[i]  # e_t = s_{t+1} - s_hat_{t+1}
+                neg_e[i] = -e[i]
+                sq += e[i] * e[i]
+            for i in range(n_a):
+                post_k[i] = action[i] - g[i]
+            sa_outer_update(k, post_k, s, lr_k, defer)  # Eq. 1
+            sa_outer_update(v, e, action, lr_v, defer)  # Eq. 2
+            sa_outer_update(q, neg_e, o_1, lr_q, defer)  # Eq. 3
+            total += math.sqrt(sq)
+            x = nx
+            y = ny
+            _visit(visited, n_visited, x, y)
+        if defer:
+            sa_commit(q)
+            sa_commit(k)
+            sa_commit(v)
+        errors[w] = total / steps
+
+
+@njit(cache=True)
+def train_factored(Wq, Wk, Wv, free, visited, n_visited, origin, scale, w0, w1, steps, n_expl,
+                   explore, lr_q, lr_k, lr_v, seed, errors):
+    """The exact factored form of the per-walk schedule (module docstring), float64 only."""
+    n_s, n_i = Wq.shape
+    n_a = Wk.shape[0]
+    M = np.zeros((n_a, n_i))  # W_k W_q: the affordance logits are M o_t
+    G = np.zeros((n_i, n_i))  # W_q^T W_q, H = W_q^T W_v, nv = |W_v a|^2: for ||e_t||
+    H = np.zeros((n_i, n_a))
+    nv = np.zeros(n_a)
+    A = np.zeros((n_a, n_i))
+    B = np.zeros((n_i, n_a))
+    cnt = np.zeros(n_a)
+    C = np.zeros((n_i, n_i))
+    D = np.zeros((n_a, n_i))
+    o_t = np.zeros(n_i)
+    o_1 = np.zeros(n_i)
+    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
+    novelty = np.zeros(N_ACTIONS)
+    best = np.zeros(K_NEAREST)
+    start_key = stream_key(seed, STREAM_WALK_START)
+    key = stream_key(seed, STREAM_EXPLORE)
+    n_free = 0
+    for cx in range(free.shape[0]):
+        for cy in range(free.shape[1]):
+            n_free += free[cx, cy]
+    for w in range(w0, w1):
+        M[:] = Wk @ Wq
+        G[:] = Wq.T @ Wq
+        H[:] = Wq.T @ Wv
+        for a in range(n_a):
+            nv[a] = 0.0
+            for i in range(n_s):
+                nv[a] += Wv[i, a] * Wv[i, a]
+        A[:] = 0.0
+        B[:] = 0.0
+        cnt[:] = 0.0
+        C[:] = 0.0
+        D[:] = 0.0
+        x, y = nth_free_cell(free, randint(start_key, w, n_free))
+        _visit(visited, n_visited, x, y)
+        t_expl = threshold(w, n_expl)
+        total = 0.0
+        for t in range(steps):
+            a = choose_action(explore, free, visited, n_visited[0], x, y, t_expl, key,
+                              w * steps + t, mask, novelty, best)
+            nx = x + MOVES[a, 0]
+            ny = y + MOVES[a, 1]
+            o_t[0] = (x - origin) / scale
+            o_t[1] = (y - origin) / scale
+            o_1[0] = (nx - origin) / scale
+            o_1[1] = (ny - origin) / scale
+            for r in range(n_a):
+                z = 0.0
+                for j in range(n_i):
+                    z += M[r, j] * o_t[j]
+                g = 1.0 / (1.0 + math.exp(-z))
+                post = (1.0 if r == a else 0.0) - g
+                for j in range(n_i):
+                    A[r, j] += post * o_t[j]
+            # ||e_t||^2 = do^T G do - 2 do^T H a + |W_v a|^2
+            sq = nv[a]
+            for i in range(n_i):
+                di = o_1[i] - o_t[i]
+                B[i, a] += di
+                sq -= 2.0 * di * H[i, a]
+                for j in range(n_i):
+                    C[i, j] += di * o_1[j]
+                    sq += di * G[i, j] * (o_1[j] - o_t[j])
+                D[a, i] += o_1[i]
+            cnt[a] += 1.0
+            total += math.sqrt(max(sq, 0.0))
+            x = nx
+            y = ny
+            _visit(visited, n_visited, x, y)
+        dWk = lr_k * (A @ Wq.T)
+        dWv = lr_v * (Wq @ B - Wv * cnt)
+        dWq = lr_q * (Wv @ D - Wq @ C)
+        Wk += dWk
+        Wv += dWv
+        Wq += dWq
+        errors[w] = total / steps
