@@ -21,6 +21,40 @@ MOVE_NAMES = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
 N_ACTIONS = 8
 
 
+def _bit_tables() -> tuple[np.ndarray, np.ndarray]:
+    popcount = np.array([bin(m).count("1") for m in range(256)], dtype=np.int64)
+    nth = np.full((256, N_ACTIONS), -1, dtype=np.int64)
+    for m in range(256):
+        for r, a in enumerate(a for a in range(N_ACTIONS) if m >> a & 1):
+            nth[m, r] = a
+    return popcount, nth
+
+
+# POPCOUNT[m]: how many moves mask m allows; NTH_MOVE[m, r]: the r-th of them, ascending.
+POPCOUNT, NTH_MOVE = _bit_tables()
+
+
+@njit(cache=True)
+def move_masks(free):
+    """uint8 (N, N): bit a of cell (x, y) is set when move a from there is available.
+
+    Computed once per arena, it makes "which moves are available" one lookup in the
+    compiled loops.
+    """
+    n = free.shape[0]
+    masks = np.zeros((n, n), dtype=np.uint8)
+    for x in range(n):
+        for y in range(n):
+            m = 0
+            for a in range(N_ACTIONS):
+                nx = x + MOVES[a, 0]
+                ny = y + MOVES[a, 1]
+                if 0 <= nx < n and 0 <= ny < n and free[nx, ny] != 0:
+                    m |= 1 << a
+            masks[x, y] = m
+    return masks
+
+
 @njit(cache=True)
 def available_moves(free, x, y, mask):
     """mask[a] = 1 where move a from (x, y) stays on a free cell; returns their number."""
@@ -76,6 +110,11 @@ class GridArena:
     def free(self) -> np.ndarray:
         """uint8 (N, N): 1 where the agent may stand (what compiled loops take)."""
         return (~self.blocked).astype(np.uint8)
+
+    @property
+    def move_masks(self) -> np.ndarray:
+        """Per-cell bitmask of the available moves (see :func:`move_masks`)."""
+        return move_masks(self.free)
 
     @property
     def n_obstacles(self) -> int:

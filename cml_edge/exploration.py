@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from cml_edge.arena import MOVES, N_ACTIONS, available_moves
+from cml_edge.arena import MOVES, N_ACTIONS, NTH_MOVE, POPCOUNT, GridArena
 from cml_edge.kernels.rng import uniform
 
 EXPLORATIONS = ("random", "mixed")
@@ -52,18 +52,10 @@ def threshold(walk, n_expl):
 
 
 @njit(cache=True)
-def random_action(mask, u):
-    """The floor(u * n)-th of the n available moves (a uniform choice for u ~ U[0, 1))."""
-    n = 0
-    for a in range(N_ACTIONS):
-        n += mask[a]
-    r = min(int(u * n), n - 1)
-    for a in range(N_ACTIONS):
-        if mask[a]:
-            if r == 0:
-                return a
-            r -= 1
-    return -1
+def random_action(moves, u):
+    """The floor(u * n)-th of the n moves in bitmask ``moves`` (uniform for u ~ U[0, 1))."""
+    n = POPCOUNT[moves]
+    return NTH_MOVE[moves, min(int(u * n), n - 1)]
 
 
 @njit(cache=True)
@@ -112,39 +104,37 @@ def knn_novelty(visited, n_visited, x, y, k, best):
 
 
 @njit(cache=True)
-def novelty_action(visited, n_visited, x, y, mask, u_tie, novelty, best):
-    """The available move whose destination is most novel (Eq. 4); ties broken by u_tie."""
+def novelty_action(visited, n_visited, x, y, moves, u_tie, novelty, best):
+    """The move in bitmask ``moves`` whose destination is most novel (Eq. 4); ties by u_tie."""
     top = -1.0
     for a in range(N_ACTIONS):
-        if mask[a]:
+        if moves >> a & 1:
             novelty[a] = knn_novelty(visited, n_visited, x + MOVES[a, 0], y + MOVES[a, 1],
                                      K_NEAREST, best)
             if novelty[a] > top:
                 top = novelty[a]
     ties = 0
     for a in range(N_ACTIONS):
-        if mask[a] and novelty[a] == top:
-            ties += 1
-    r = min(int(u_tie * ties), ties - 1)
-    for a in range(N_ACTIONS):
-        if mask[a] and novelty[a] == top:
-            if r == 0:
-                return a
-            r -= 1
-    return -1
+        if moves >> a & 1 and novelty[a] == top:
+            ties |= 1 << a
+    return random_action(ties, u_tie)
 
 
 @njit(cache=True)
-def choose_action(explore, free, visited, n_visited, x, y, t_expl, key, step, mask, novelty,
-                  best):
-    """The exploration move at global training step ``step`` (both strategies)."""
-    if available_moves(free, x, y, mask) == 0:
+def choose_action(explore, masks, visited, n_visited, x, y, t_expl, key, step, novelty, best):
+    """The exploration move at global training step ``step`` (both strategies).
+
+    ``masks`` is the arena's per-cell bitmask of available moves
+    (:func:`cml_edge.arena.move_masks`); -1 when no move is available.
+    """
+    moves = masks[x, y]
+    if moves == 0:
         return -1
     ctr = np.uint64(4) * np.uint64(step)
     if explore == MIXED and uniform(key, ctr) < t_expl:
-        return novelty_action(visited, n_visited, x, y, mask,
+        return novelty_action(visited, n_visited, x, y, moves,
                               uniform(key, ctr + np.uint64(2)), novelty, best)
-    return random_action(mask, uniform(key, ctr + np.uint64(1)))
+    return random_action(moves, uniform(key, ctr + np.uint64(1)))
 
 
 @njit(cache=True)
@@ -188,17 +178,18 @@ class VisitedSet:
         return total
 
 
-def choose_action_reference(explore: int, free: np.ndarray, visited: VisitedSet, x: int, y: int,
+def choose_action_reference(explore: int, arena: GridArena, visited: VisitedSet, x: int, y: int,
                             t_expl: float, key, step: int) -> int:
     """Plain-Python twin of :func:`choose_action`, with cKDTree novelty."""
-    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
-    if available_moves(free, x, y, mask) == 0:
+    moves = [a for a in range(N_ACTIONS) if arena.is_free((x + MOVES[a, 0], y + MOVES[a, 1]))]
+    if not moves:
         return -1
     ctr = 4 * step
     if explore == MIXED and uniform(key, ctr) < t_expl:
-        novelty = {a: visited.novelty(x + MOVES[a, 0], y + MOVES[a, 1])
-                   for a in range(N_ACTIONS) if mask[a]}
+        novelty = {a: visited.novelty(x + MOVES[a, 0], y + MOVES[a, 1]) for a in moves}
         top = max(novelty.values())
-        ties = [a for a, v in novelty.items() if v == top]
-        return ties[min(int(uniform(key, ctr + 2) * len(ties)), len(ties) - 1)]
-    return int(random_action(mask, uniform(key, ctr + 1)))
+        moves = [a for a, v in novelty.items() if v == top]
+        u = uniform(key, ctr + 2)
+    else:
+        u = uniform(key, ctr + 1)
+    return moves[min(int(u * len(moves)), len(moves) - 1)]

@@ -77,7 +77,9 @@ class Explorer:
     """Exploration state that persists across walks: the visited cells (Eq. 4)."""
 
     def __init__(self, arena: GridArena) -> None:
+        self.arena = arena
         self.free = arena.free
+        self.masks = arena.move_masks
         self.visited = np.zeros_like(self.free)
         self.n_visited = np.zeros(1, dtype=np.int64)
         self.reference = VisitedSet()
@@ -110,9 +112,9 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
 
 def _train_walks(cml, explorer, config, seed, path, defer, w0, w1, errors):
     c = cml.config
-    args = (explorer.free, explorer.visited, explorer.n_visited, c.obs_origin, c.obs_scale, w0, w1,
-            config.steps, config.n_expl, explore_code(config.explore), c.lr_q, c.lr_k, c.lr_v,
-            int(seed), errors)
+    args = (explorer.free, explorer.masks, explorer.visited, explorer.n_visited, c.obs_origin,
+            c.obs_scale, w0, w1, config.steps, config.n_expl, explore_code(config.explore),
+            c.lr_q, c.lr_k, c.lr_v, int(seed), errors)
     if path == "direct":
         train_direct(cml.W_q.state, cml.W_k.state, cml.W_v.state, defer, *args)
     elif path == "factored":
@@ -135,7 +137,7 @@ def train_reference(cml: CML, explorer: Explorer, config: TrainConfig, seed: int
         t_expl = threshold(w, config.n_expl)
         total = 0.0
         for t in range(config.steps):
-            a = choose_action_reference(code, explorer.free, visited, x, y, t_expl, key,
+            a = choose_action_reference(code, explorer.arena, visited, x, y, t_expl, key,
                                         w * config.steps + t)
             nx, ny = x + MOVES[a, 0], y + MOVES[a, 1]
             total += learn_step(cml, cml.observe((x, y)), cml.observe((nx, ny)), a, defer)
@@ -153,8 +155,8 @@ def _visit(visited, n_visited, x, y):
 
 
 @njit(cache=True)
-def train_direct(q, k, v, defer, free, visited, n_visited, origin, scale, w0, w1, steps, n_expl,
-                 explore, lr_q, lr_k, lr_v, seed, errors):
+def train_direct(q, k, v, defer, free, masks, visited, n_visited, origin, scale, w0, w1, steps,
+                 n_expl, explore, lr_q, lr_k, lr_v, seed, errors):
     """The compiled twin of :func:`train_reference`, through the synaptic-array seam."""
     n_s = q[0].shape[0]
     n_i = q[0].shape[1]
@@ -171,7 +173,6 @@ def train_direct(q, k, v, defer, free, visited, n_visited, origin, scale, w0, w1
     g = np.zeros(n_a)
     post_k = np.zeros(n_a)
     action = np.zeros(n_a)
-    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
     novelty = np.zeros(N_ACTIONS)
     best = np.zeros(K_NEAREST)
     start_key = stream_key(seed, STREAM_WALK_START)
@@ -186,8 +187,8 @@ def train_direct(q, k, v, defer, free, visited, n_visited, origin, scale, w0, w1
         t_expl = threshold(w, n_expl)
         total = 0.0
         for t in range(steps):
-            a = choose_action(explore, free, visited, n_visited[0], x, y, t_expl, key,
-                              w * steps + t, mask, novelty, best)
+            a = choose_action(explore, masks, visited, n_visited[0], x, y, t_expl, key,
+                              w * steps + t, novelty, best)
             nx = x + MOVES[a, 0]
             ny = y + MOVES[a, 1]
             o_t[0] = (x - origin) / scale
@@ -226,23 +227,30 @@ def train_direct(q, k, v, defer, free, visited, n_visited, origin, scale, w0, w1
 
 
 @njit(cache=True)
-def train_factored(Wq, Wk, Wv, free, visited, n_visited, origin, scale, w0, w1, steps, n_expl,
-                   explore, lr_q, lr_k, lr_v, seed, errors):
-    """The exact factored form of the per-walk schedule (module docstring), float64 only."""
+def train_factored(Wq, Wk, Wv, free, masks, visited, n_visited, origin, scale, w0, w1, steps,
+                   n_expl, explore, lr_q, lr_k, lr_v, seed, errors):
+    """The exact factored form of the per-walk schedule (module docstring), float64 only.
+
+    Two more exact rearrangements keep a step to a few additions: the affordance term
+    of A, sum_t g(o_t) o_t^T, is summed per visited cell (n_cell g(o_cell) o_cell^T,
+    one sigmoid per cell and walk instead of one per step), and the training error
+    ||e_t|| = ||W_q delta_a - W_v a|| depends only on the action, so it is formed
+    once per action and walk (delta_a = MOVES[a] / obs_scale).
+    """
     n_s, n_i = Wq.shape
     n_a = Wk.shape[0]
-    M = np.zeros((n_a, n_i))  # W_k W_q: the affordance logits are M o_t
-    G = np.zeros((n_i, n_i))  # W_q^T W_q, H = W_q^T W_v, nv = |W_v a|^2: for ||e_t||
-    H = np.zeros((n_i, n_a))
-    nv = np.zeros(n_a)
-    A = np.zeros((n_a, n_i))
+    n = free.shape[0]
+    M = np.zeros((n_a, n_i))
+    E = np.zeros((n_a, n_i))  # sum a_t o_t^T
     B = np.zeros((n_i, n_a))
     cnt = np.zeros(n_a)
     C = np.zeros((n_i, n_i))
     D = np.zeros((n_a, n_i))
+    err_a = np.zeros(n_a)
+    visits = np.zeros((n, n), np.int64)
+    cells = np.zeros((steps + 1, 2), np.int64)
     o_t = np.zeros(n_i)
     o_1 = np.zeros(n_i)
-    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
     novelty = np.zeros(N_ACTIONS)
     best = np.zeros(K_NEAREST)
     start_key = stream_key(seed, STREAM_WALK_START)
@@ -253,57 +261,66 @@ def train_factored(Wq, Wk, Wv, free, visited, n_visited, origin, scale, w0, w1, 
             n_free += free[cx, cy]
     for w in range(w0, w1):
         M[:] = Wk @ Wq
-        G[:] = Wq.T @ Wq
-        H[:] = Wq.T @ Wv
         for a in range(n_a):
-            nv[a] = 0.0
-            for i in range(n_s):
-                nv[a] += Wv[i, a] * Wv[i, a]
-        A[:] = 0.0
+            sq = 0.0
+            for r in range(n_s):
+                e = Wq[r, 0] * (MOVES[a, 0] / scale) + Wq[r, 1] * (MOVES[a, 1] / scale) - Wv[r, a]
+                sq += e * e
+            err_a[a] = math.sqrt(sq)
+        E[:] = 0.0
         B[:] = 0.0
         cnt[:] = 0.0
         C[:] = 0.0
         D[:] = 0.0
+        n_cells = 0
         x, y = nth_free_cell(free, randint(start_key, w, n_free))
         _visit(visited, n_visited, x, y)
         t_expl = threshold(w, n_expl)
-        total = 0.0
         for t in range(steps):
-            a = choose_action(explore, free, visited, n_visited[0], x, y, t_expl, key,
-                              w * steps + t, mask, novelty, best)
+            a = choose_action(explore, masks, visited, n_visited[0], x, y, t_expl, key,
+                              w * steps + t, novelty, best)
             nx = x + MOVES[a, 0]
             ny = y + MOVES[a, 1]
             o_t[0] = (x - origin) / scale
             o_t[1] = (y - origin) / scale
             o_1[0] = (nx - origin) / scale
             o_1[1] = (ny - origin) / scale
+            for i in range(n_i):
+                di = o_1[i] - o_t[i]
+                E[a, i] += o_t[i]
+                B[i, a] += di
+                D[a, i] += o_1[i]
+                for j in range(n_i):
+                    C[i, j] += di * o_1[j]
+            cnt[a] += 1.0
+            if visits[x, y] == 0:
+                cells[n_cells, 0] = x
+                cells[n_cells, 1] = y
+                n_cells += 1
+            visits[x, y] += 1
+            x = nx
+            y = ny
+            _visit(visited, n_visited, x, y)
+        A = E.copy()  # A = sum (a_t - g_t) o_t^T
+        total = 0.0
+        for c in range(n_cells):
+            cx = cells[c, 0]
+            cy = cells[c, 1]
+            m = visits[cx, cy]
+            visits[cx, cy] = 0
+            o_t[0] = (cx - origin) / scale
+            o_t[1] = (cy - origin) / scale
             for r in range(n_a):
                 z = 0.0
                 for j in range(n_i):
                     z += M[r, j] * o_t[j]
-                g = 1.0 / (1.0 + math.exp(-z))
-                post = (1.0 if r == a else 0.0) - g
+                g = m / (1.0 + math.exp(-z))
                 for j in range(n_i):
-                    A[r, j] += post * o_t[j]
-            # ||e_t||^2 = do^T G do - 2 do^T H a + |W_v a|^2
-            sq = nv[a]
-            for i in range(n_i):
-                di = o_1[i] - o_t[i]
-                B[i, a] += di
-                sq -= 2.0 * di * H[i, a]
-                for j in range(n_i):
-                    C[i, j] += di * o_1[j]
-                    sq += di * G[i, j] * (o_1[j] - o_t[j])
-                D[a, i] += o_1[i]
-            cnt[a] += 1.0
-            total += math.sqrt(max(sq, 0.0))
-            x = nx
-            y = ny
-            _visit(visited, n_visited, x, y)
-        dWk = lr_k * (A @ Wq.T)
+                    A[r, j] -= g * o_t[j]
+        for a in range(n_a):
+            total += cnt[a] * err_a[a]
+        Wk += lr_k * (A @ Wq.T)
         dWv = lr_v * (Wq @ B - Wv * cnt)
-        dWq = lr_q * (Wv @ D - Wq @ C)
-        Wk += dWk
+        Wq += lr_q * (Wv @ D - Wq @ C)
         Wv += dWv
-        Wq += dWq
         errors[w] = total / steps

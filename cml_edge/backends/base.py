@@ -124,7 +124,7 @@ class SynapticArray:
                 raise ValueError(
                     f"field {f!r}: {a.dtype}[{a.ndim}d] where {t.dtype}[{t.ndim}d] is expected"
                 )
-            fields.append(np.ascontiguousarray(a.copy()))
+            fields.append(np.array(a, copy=True))
         state = cls.State(*fields)
         if state.counters.shape != (len(cls.counter_names),):
             raise ValueError(f"counters: {state.counters.shape[0]} where "

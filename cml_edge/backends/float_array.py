@@ -24,6 +24,11 @@ register(FloatState, Kernels(kern.float_matvec, kern.float_rmatvec, kern.float_o
 _DTYPES = {"float64": np.float64, "float32": np.float32}
 
 
+def _laid_out(W: np.ndarray) -> np.ndarray:
+    """A copy of W column-major if tall, row-major if wide (see the kernels' docstring)."""
+    return np.array(W, order="F" if W.shape[0] >= W.shape[1] else "C", copy=True)
+
+
 class FloatArray(SynapticArray):
     """Exact floating-point weights: the reference every device array is compared with."""
 
@@ -40,9 +45,13 @@ class FloatArray(SynapticArray):
                    dtype: str = "float64") -> FloatArray:
         if dtype not in _DTYPES:
             raise ValueError(f"dtype {dtype!r} is not one of {', '.join(_DTYPES)}")
-        W = np.ascontiguousarray(W, dtype=_DTYPES[dtype]).copy()
+        W = _laid_out(np.asarray(W, dtype=_DTYPES[dtype]))
         return cls(FloatState(W, np.zeros_like(W), np.zeros(max(W.shape), W.dtype),
                               np.zeros(kern.N_COUNTERS, np.int64)))
+
+    @classmethod
+    def _restore(cls, state: FloatState, options: dict[str, Any]) -> FloatArray:
+        return cls(state._replace(W=_laid_out(state.W), acc=_laid_out(state.acc)))
 
     def options(self) -> dict[str, Any]:
         return {"dtype": self.state.W.dtype.name}

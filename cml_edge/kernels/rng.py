@@ -1,5 +1,8 @@
 """Counter-based random numbers keyed by (seed, stream, counter), usable inside Numba.
 
+The functions have explicit uint64 signatures, so Python ints of any size up to 2^64
+and compiled int64 counters reach the same code.
+
 Every random draw in cml-edge (exploration, stochastic rounding, device noise) is
 ``uniform(stream_key(seed, stream), counter)``: a SplitMix64 output at position
 ``counter`` of the sequence keyed by (seed, stream). A draw depends on nothing but
@@ -27,7 +30,7 @@ STREAM_INIT = 3
 STREAM_DEVICE = 16  # + array index (0: W_q, 1: W_k, 2: W_v)
 
 
-@njit(cache=True)
+@njit("uint64(uint64)", cache=True)
 def mix64(z):
     """SplitMix64 finaliser: a bijective avalanche of a uint64."""
     z = np.uint64(z)
@@ -36,27 +39,27 @@ def mix64(z):
     return z ^ (z >> np.uint64(31))
 
 
-@njit(cache=True)
+@njit("uint64(uint64, uint64)", cache=True)
 def stream_key(seed, stream):
     """The key of stream ``stream`` of run ``seed`` (both non-negative integers)."""
     return mix64(mix64(np.uint64(seed) + _GOLDEN) ^ (np.uint64(stream) * _GOLDEN))
 
 
-@njit(cache=True)
+@njit("float64(uint64, uint64)", cache=True)
 def uniform(key, counter):
     """A float64 uniform on [0, 1) at position ``counter`` of stream ``key``."""
     z = mix64(np.uint64(key) + np.uint64(counter) * _GOLDEN)
     return float(z >> np.uint64(11)) * _TWO_M53
 
 
-@njit(cache=True)
+@njit("int64(uint64, uint64, int64)", cache=True)
 def randint(key, counter, n):
     """An integer uniform on [0, n)."""
     i = int(uniform(key, counter) * n)
     return i if i < n else n - 1
 
 
-@njit(cache=True)
+@njit("float64(uint64, uint64)", cache=True)
 def normal(key, counter):
     """A standard normal (Box-Muller) from positions 2*counter and 2*counter + 1."""
     u1 = 1.0 - uniform(key, np.uint64(2) * np.uint64(counter))

@@ -1,0 +1,1 @@
+"""Experiments: each module reads top to bottom and reruns with ``python -m``."""

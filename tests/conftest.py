@@ -1,0 +1,24 @@
+"""Shared fixtures: small arenas and configurations that keep the suite fast."""
+
+from __future__ import annotations
+
+import pytest
+
+from cml_edge.arena import GridArena
+from cml_edge.cml import CMLConfig
+from cml_edge.training import TrainConfig
+
+
+@pytest.fixture
+def small_arena() -> GridArena:
+    return GridArena.empty(10)
+
+
+@pytest.fixture
+def small_config() -> CMLConfig:
+    return CMLConfig.for_arena(10)
+
+
+@pytest.fixture
+def short_training() -> TrainConfig:
+    return TrainConfig(walks=4, steps=60)

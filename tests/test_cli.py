@@ -1,0 +1,147 @@
+"""The command line: the contract of DESIGN.md, and one-line errors with exit status 2."""
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+from cml_edge.cli import main
+from cml_edge.storage import FORMAT_VERSION, load_model, save_model
+
+SMALL = ["--arena", "10", "--walks", "4", "--steps", "60"]
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def model(tmp_path, capsys):
+    path = tmp_path / "m.npz"
+    code, out, err = run(capsys, "train", *SMALL, "--seed", 1, "--out", path, "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    assert result["model"] == str(path) and result["path"] == "factored"
+    return path
+
+
+def test_train_evaluate_navigate(model, tmp_path, capsys):
+    code, out, _ = run(capsys, "evaluate", model, "--trials", 20, "--json")
+    assert code == 0
+    result = json.loads(out)
+    for key in ("backend", "seeds", "trials", "success_rate", "e_pos_mean", "e_pos_median",
+                "overhead_mean", "overhead_median"):
+        assert key in result
+    assert result["trials"] == 20 and result["arena"] == 10
+    png = tmp_path / "nav.png"
+    code, out, _ = run(capsys, "navigate", model, "--start", 1, 1, "--goal", 8, 6, "--plot", png,
+                       "--json")
+    assert code == 0
+    nav = json.loads(out)
+    assert nav["path"][0] == [1, 1] and len(nav["path"]) == nav["steps"] + 1
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_saved_model_round_trip(model):
+    cml, record = load_model(model)
+    assert record["walks"] == 4 and record["arena"] == 10
+    assert cml.config.obs_scale == 10.0 and cml.backend == "float"
+
+
+def test_emulate_json_has_the_contract_keys(capsys):
+    code, out, _ = run(capsys, "emulate", *SMALL, "--seeds", 2, "--trials", 10, "--json")
+    assert code == 0
+    result = json.loads(out)
+    for key in ("backend", "seeds", "trials", "success_rate", "e_pos_mean", "e_pos_median",
+                "overhead_mean", "overhead_median", "counters"):
+        assert key in result
+    assert result["seeds"] == 2 and result["counters"]["matvecs"] > 0
+
+
+def bad(capsys, *argv):
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("cml-edge: error:"), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["train", "--arena", "1", "--out", "x.npz"], "'1'"),
+    (["train", "--arena", "nan", "--out", "x.npz"], "'nan'"),
+    (["train", "--walks", "2.5", "--out", "x.npz"], "'2.5'"),
+    (["train", "--steps", "-4", "--out", "x.npz"], "'-4'"),
+    (["train", "--explore", "greedy", "--out", "x.npz"], "greedy"),
+    (["train", "--backend", "gpu", "--out", "x.npz"], "unknown backend 'gpu'"),
+    (["emulate", "--trials", "0"], "'0'"),
+    (["emulate", "--drift-time", "-1"], "negative"),
+    (["emulate", "--drift-time", "inf"], "'inf'"),
+])
+def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch, argv, needle):
+    monkeypatch.chdir(tmp_path)
+    assert needle in bad(capsys, *argv)
+    assert not (tmp_path / "x.npz").exists()
+
+
+@pytest.mark.parametrize("start,goal,needle", [
+    ((1, 1), (10, 3), "--goal 10 3 is off"),
+    ((-1, 0), (3, 3), "--start -1 0 is off"),
+])
+def test_navigate_off_arena(model, capsys, start, goal, needle):
+    assert needle in bad(capsys, "navigate", model, "--start", *start, "--goal", *goal)
+
+
+def test_navigate_onto_obstacle(model, capsys):
+    from cml_edge.arena import GridArena
+
+    arena = GridArena.with_obstacles(10, 30, seed=123)
+    x, y = np.argwhere(arena.blocked)[0]
+    line = bad(capsys, "navigate", model, "--obstacles", 30, "--start", x, y, "--goal", 0, 0)
+    assert "on an obstacle" in line
+
+
+def test_missing_corrupted_foreign_and_future_models(tmp_path, capsys, model):
+    assert "does not exist" in bad(capsys, "evaluate", tmp_path / "none.npz")
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a zip at all")
+    assert "not a readable" in bad(capsys, "evaluate", junk)
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, weights=np.ones(3))
+    assert "not a cml-edge model" in bad(capsys, "evaluate", foreign)
+    with zipfile.ZipFile(model) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    cut = tmp_path / "cut.npz"
+    with zipfile.ZipFile(cut, "w") as z:
+        for name, data in members.items():
+            if not name.startswith("W_v/W"):
+                z.writestr(name, data)
+    assert "corrupted" in bad(capsys, "evaluate", cut)
+    cml, record = load_model(model)
+    future = tmp_path / "future.npz"
+    with np.load(model) as z:
+        data = {k: z[k] for k in z.files}
+    data["format_version"] = np.array(FORMAT_VERSION + 1)
+    np.savez(future, **data)
+    assert "format version" in bad(capsys, "evaluate", future)
+    cml.W_q.state.W[0, 0] = np.nan
+    nan_model = tmp_path / "nan.npz"
+    save_model(nan_model, cml, record)
+    assert "non-finite" in bad(capsys, "evaluate", nan_model)
+
+
+def test_interrupted_write_leaves_nothing(tmp_path):
+    from cml_edge.storage import atomic_write
+
+    target = tmp_path / "out.json"
+
+    def explode(f):
+        f.write(b"half")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write(target, explode)
+    assert list(tmp_path.iterdir()) == []
