@@ -213,9 +213,12 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
               "wall_time_s": time.perf_counter() - t0, "cml_edge_version": __version__,
               "command": "cml-edge " + " ".join(sys.argv[1:])}
     save_model(args.out, cml, record)
-    return {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
+    out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
         "arena", "walks", "steps", "explore", "schedule", "seed", "path", "wall_time_s")},
-        "final_train_error": float(errors[-1]), "counters": cml.counters()}
+        "final_train_error": float(errors[-1])}
+    if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
+        out["counters"] = cml.counters()
+    return out
 
 
 def _load(path: str) -> tuple[CML, dict[str, Any]]:

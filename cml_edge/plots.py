@@ -49,6 +49,6 @@ def plot_navigation(path: str | Path, arena: GridArena, trajectory: np.ndarray, 
     ax.set_xlabel("x")
     ax.set_ylabel("y")
     ax.set_title(title or f"CML navigation, {n} x {n} arena")
-    ax.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
     save_png(fig, path)
     plt.close(fig)
