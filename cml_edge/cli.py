@@ -180,6 +180,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "drift (crossbar) apply it (0)")
     p.add_argument("--out", help="also write the JSON result to this file")
 
+    p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
+                       "figures)")
+    p.add_argument("--out", default="hw_reports/latest",
+                   help="report folder (default hw_reports/latest)")
+    p.add_argument("--quick", action="store_true",
+                   help="few seeds and trials: minutes instead of the full protocol")
+    p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
+
     p = sub.add_parser("bench", help="time the training and planning loops")
     p.add_argument("--backends", nargs="+", default=None,
                    help="backends to time (default: all registered)")
@@ -291,6 +299,22 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.report import build_report, write_report
+
+    def progress(message: str) -> None:
+        if sys.stderr.isatty():
+            print(f"report: {message}", file=sys.stderr, flush=True)
+
+    report = build_report(quick=args.quick, command="cml-edge " + " ".join(sys.argv[1:]),
+                          progress=progress)
+    folder = write_report(report, args.out)
+    if args.json:
+        return report
+    return {"report": str(folder / "report.md"), "systems": len(report["systems"]),
+            "wall_time_s": report["wall_time_s"]}
+
+
 def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.bench import run_bench
 
@@ -301,7 +325,7 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
 
 COMMANDS = {"train": cmd_train, "evaluate": cmd_evaluate, "navigate": cmd_navigate,
-            "emulate": cmd_emulate, "bench": cmd_bench}
+            "emulate": cmd_emulate, "report": cmd_report, "bench": cmd_bench}
 
 
 def _print_human(command: str, result: dict[str, Any]) -> None:

@@ -84,6 +84,18 @@ class SynapticArray:
         self._kernels.sigmoid(self.state, _vector(z, len(z)), out)
         return out
 
+    def weight_bits(self) -> int:
+        """Bits a chip holds per weight (the budget's parameter memory).
+
+        Default: the storage dtype of the first state field; devices override it.
+        """
+        return int(self.state[0].dtype.itemsize * 8)
+
+    def accumulator_bits(self) -> int:
+        """Bits per weight of the per-walk update accumulator (the ``acc`` field)."""
+        acc = getattr(self.state, "acc", None)
+        return int(acc.dtype.itemsize * 8) if acc is not None else self.weight_bits()
+
     def elapse(self, seconds: float) -> None:
         """Let ``seconds`` pass with no reads or writes (retention, drift). Default: no change."""
 

@@ -1,0 +1,208 @@
+"""The hardware-budget ledger: what a navigator costs on a chip, from real shapes and counters.
+
+Nothing here is typed in by hand. Counts come from the model's shapes (parameters, the
+paper's FLOP formulas of section 2.4.3), from the counters an emulated array kept while
+it trained and planned (MACs, bytes, cells changed, pulses), and from the DQN's
+layer sizes and training settings. Energy is counted operation by operation, and each
+per-operation constant carries its source (../shared/reference/crossbar.md). An
+operation with no sourced constant is reported as not costed, never guessed.
+
+Two schedules of the CML's per-walk training are ledgered:
+
+- ``direct``: every synapse touched every step: the emulator's counters;
+- ``factored``: the 60 per-walk accumulators of :mod:`cml_edge.training` (A, B, n, C,
+  D), updated each step, and one read and one write of each matrix per walk.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from cml_edge.cml import CML
+
+FLOPS_PER_MAC = 2
+HOROWITZ = "Horowitz, ISSCC 2014, 45 nm"
+
+
+@dataclass(frozen=True)
+class Cost:
+    """Energy of one operation, and where the figure comes from."""
+
+    pj: float
+    per: str
+    source: str
+
+
+COSTS: dict[str, Cost] = {
+    "fp32_mac": Cost(4.6, "MAC", f"{HOROWITZ}: fp32 mult 3.7 pJ + fp32 add 0.9 pJ"),
+    "int8_mac": Cost(0.23, "MAC", f"{HOROWITZ}: int8 mult 0.2 pJ + int8 add 0.03 pJ"),
+    "int32_mac": Cost(3.2, "MAC", f"{HOROWITZ}: int32 mult 3.1 pJ + int32 add 0.1 pJ "
+                                  "(upper bound for 9-16 bit weights)"),
+    "sram_byte": Cost(1.25, "byte", f"{HOROWITZ}: 8 KB SRAM read ~10 pJ per 64 bit"),
+    "dram_byte": Cost(162.5, "byte", f"{HOROWITZ}: DRAM ~1.3 nJ per 64 bit (low end)"),
+    "analog_mac": Cost(0.205, "MAC", "Le Gallo et al., Nature Electronics 2023, 14 nm PCM: "
+                                     "9.76 TOPS/W incl. ADC and periphery, 2 ops per MAC"),
+    "write_pulse": Cost(64.0, "device pulse", "NeuroSim V3 default write pulse "
+                                              "(3.2 V, 300 us): ~64 pJ"),
+}
+
+
+def technology(cml: CML) -> str:
+    """The cost model of the CML's arrays: fp64, fp32, int8, int16, or analog."""
+    arr = cml.W_q
+    if arr.name == "float":
+        return "fp64" if arr.state.W.dtype.itemsize == 8 else "fp32"
+    if arr.name == "fixed":
+        return "int8" if arr.weight_bits() <= 8 else "int16"
+    return "analog"
+
+
+def _mac_cost(tech: str) -> Cost | None:
+    return {"fp32": COSTS["fp32_mac"], "int8": COSTS["int8_mac"], "int16": COSTS["int32_mac"],
+            "analog": COSTS["analog_mac"]}.get(tech)
+
+
+def energy_pj(tech: str, counters: dict[str, int]) -> tuple[float | None, list[str]]:
+    """Energy of the operations in ``counters`` on ``tech``, and the sources used.
+
+    Digital arrays: MACs plus SRAM bytes moved. Analog arrays: analog MACs (whose
+    figure includes DAC/ADC conversions) plus one write pulse per device pulse. None
+    when the technology has no sourced MAC figure (float64).
+    """
+    mac = _mac_cost(tech)
+    if mac is None:
+        return None, []
+    if tech == "analog":
+        pulses = counters.get("device_pulses", 0)
+        total = counters.get("analog_macs", 0) * mac.pj + pulses * COSTS["write_pulse"].pj
+        return total, [mac.source, COSTS["write_pulse"].source]
+    moved = counters.get("bytes_read", 0) + counters.get("bytes_written", 0)
+    macs = counters.get("macs", 0) + counters.get("update_macs", 0)
+    return macs * mac.pj + moved * COSTS["sram_byte"].pj, [mac.source, COSTS["sram_byte"].source]
+
+
+# the CML ---------------------------------------------------------------------------
+N_FACTORED_ACCUMULATORS = "n_a*n_i + n_i*n_a + n_a + n_i*n_i + n_a*n_i"
+
+
+def factored_accumulators(cml: CML) -> int:
+    """A, B, n, C, D of the factored form: 60 numbers for the paper's sizes."""
+    c = cml.config
+    return c.n_a * c.n_i + c.n_i * c.n_a + c.n_a + c.n_i * c.n_i + c.n_a * c.n_i
+
+
+def cml_memory(cml: CML, explore: str, arena: int) -> dict[str, Any]:
+    """Parameter bytes and the memory needed to train, per schedule (bytes)."""
+    params = cml.parameter_count()
+    wbits = cml.W_q.weight_bits()
+    abits = cml.W_q.accumulator_bits()
+    weights = params * wbits / 8
+    visited = arena * arena / 8 if explore == "mixed" else 0.0  # one bit per cell (Eq. 4)
+    return {
+        "weight_bits": wbits,
+        "parameter_bytes": weights,
+        "train_bytes_direct": weights + params * abits / 8 + visited,
+        "train_bytes_factored": weights + factored_accumulators(cml) * 8 + visited,
+        "train_bytes_in_place": weights + visited,
+        "accumulator_bits": abits,
+    }
+
+
+def cml_factored_traffic(cml: CML, walks: int, steps: int) -> dict[str, float]:
+    """Bytes moved by the factored schedule: accumulators each step, matrices each walk.
+
+    Per step, each of the 2 N_i + N_i^2 + N_a-indexed accumulator entries touched
+    (A's row, B's column, n, C, D's row: 3 N_i + N_i^2 + 1) is read and written as
+    float64, and the affordance row of A is updated per visited cell at walk end
+    (bounded here by one per step). Per walk, the three matrices are read once (to form
+    the small products) and written once (the update).
+    """
+    c = cml.config
+    wbytes = cml.parameter_count() * cml.W_q.weight_bits() / 8
+    per_step = (3 * c.n_i + c.n_i * c.n_i + 1 + c.n_a * c.n_i) * 8 * 2
+    per_walk = 2 * wbytes
+    return {"bytes_per_step": per_step + per_walk / steps,
+            "bytes_per_run": walks * (steps * per_step + per_walk),
+            "cells_written_per_run": walks * cml.parameter_count()}
+
+
+# the DQN ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class DQNSettings:
+    """The paper's DQN and the original stable-baselines settings (reference/dqn.md)."""
+
+    n_in: int = 2
+    hidden: tuple[int, ...] = (64, 64)
+    n_out: int = 8
+    buffer_size: int = 50_000
+    batch_size: int = 32
+    train_freq: int = 1
+    target_update: int = 500
+    learning_starts: int = 1_000
+    bytes_per_float: int = 4
+    # SB3 ReplayBuffer per transition: obs and next obs (float32), action (int64),
+    # reward, done and timeout (float32)
+    transition_bytes: int = 2 * 2 * 4 + 8 + 3 * 4
+
+    @property
+    def layers(self) -> list[tuple[int, int]]:
+        sizes = [self.n_in, *self.hidden, self.n_out]
+        return list(zip(sizes[:-1], sizes[1:]))
+
+
+def dqn_parameter_count(s: DQNSettings) -> int:
+    """Weights and biases of the dense layers: 4,872 for 2-64-64-8."""
+    return sum(i * o + o for i, o in s.layers)
+
+
+def dqn_inference_flops(s: DQNSettings) -> int:
+    """The paper's count, 2 N_x N_y per dense layer: 9,472 for 2-64-64-8."""
+    return sum(2 * i * o for i, o in s.layers)
+
+
+def dqn_memory(s: DQNSettings) -> dict[str, float]:
+    """Bytes to hold the policy, and to train it at the settings used."""
+    p = dqn_parameter_count(s)
+    f = s.bytes_per_float
+    activations = s.batch_size * (s.n_in + 2 * sum(s.hidden) + s.n_out) * f
+    return {
+        "parameter_bytes": p * f,
+        "train_bytes": (p * f) * 5 + s.buffer_size * s.transition_bytes + activations,
+        "train_bytes_networks": p * f * 2,
+        "train_bytes_adam_and_grads": p * f * 3,
+        "train_bytes_replay": s.buffer_size * s.transition_bytes,
+        "train_bytes_activations": activations,
+    }
+
+
+def dqn_training_traffic(s: DQNSettings, total_steps: int) -> dict[str, float]:
+    """Operations and bytes of DQN training per environment step and per run.
+
+    Each step: one forward pass to act, one replay write. Each gradient step (every
+    ``train_freq`` steps after ``learning_starts``): a minibatch read, forward passes of
+    the online and target networks on it, a backward pass (2x the forward MACs), and
+    Adam reading and writing parameters, gradients and two moments.
+    """
+    p = dqn_parameter_count(s)
+    f = s.bytes_per_float
+    fwd = dqn_inference_flops(s) // FLOPS_PER_MAC
+    updates = max(0, total_steps - s.learning_starts) // s.train_freq
+    macs = total_steps * fwd + updates * s.batch_size * fwd * (1 + 1 + 2)
+    replay = total_steps * s.transition_bytes + updates * s.batch_size * s.transition_bytes
+    weights = total_steps * p * f + updates * (2 * p * f * 2 + p * f * 4 * 2)
+    return {"macs": macs, "replay_bytes": replay, "weight_bytes": weights,
+            "gradient_steps": updates,
+            "bytes_per_step": (replay + weights) / total_steps, "macs_per_step": macs / total_steps}
+
+
+def dqn_energy_pj(traffic: dict[str, float]) -> tuple[float, list[str]]:
+    """fp32 MACs, weights and gradients in SRAM, the replay buffer in DRAM."""
+    total = (traffic["macs"] * COSTS["fp32_mac"].pj + traffic["weight_bytes"]
+             * COSTS["sram_byte"].pj + traffic["replay_bytes"] * COSTS["dram_byte"].pj)
+    return total, [COSTS[k].source for k in ("fp32_mac", "sram_byte", "dram_byte")]
+
+
+def costs_table() -> list[dict[str, Any]]:
+    """Every energy constant used, with its source (printed in the report)."""
+    return [{"name": k, **asdict(v)} for k, v in COSTS.items()]

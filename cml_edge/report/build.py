@@ -1,0 +1,254 @@
+"""Build the hardware-budget report: run the protocol per synaptic array, ledger it, write it.
+
+Read top to bottom: :func:`build_report` trains and evaluates each system (one CML per
+seed on the paper's protocol), measures one extra model per system operation by
+operation (its counters while training and while planning), adds the DQN baseline
+from its results file, and returns one JSON-ready dict. :func:`write_report` renders
+``report.md`` and the figures from that dict alone, so every number in the markdown
+is a number of ``report.json``; it writes everything into a temporary folder and
+renames it into place, so an interrupted report leaves no half-written files.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import shutil
+import tempfile
+import time
+from collections.abc import Callable
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__, budget
+from cml_edge.arena import GridArena
+from cml_edge.backends import BACKENDS
+from cml_edge.cml import CML, CMLConfig
+from cml_edge.evaluation import EVAL_SEED, run_protocol
+from cml_edge.metrics import draw_pairs
+from cml_edge.planning import plan
+from cml_edge.training import TrainConfig, train
+
+SCHEMA_VERSION = 1
+N_EXAMPLES = 3
+DQN_RESULTS = Path(__file__).resolve().parents[2] / "hw_reports" / "baselines" / "dqn_results.json"
+
+# (label, backend, options): the systems of the main table, when their backend exists
+SYSTEMS: list[tuple[str, str, dict[str, Any]]] = [
+    ("float64", "float", {}),
+    ("float32", "float32", {}),
+    ("int16", "int16", {}),
+    ("int8", "int8", {}),
+    ("crossbar-ideal", "crossbar", {"preset": "ideal"}),
+    ("crossbar-pcm", "crossbar", {"preset": "pcm"}),
+    ("crossbar-reram", "crossbar", {"preset": "reram"}),
+]
+# precision sweeps drawn as figures: (figure, label, backend, options)
+SWEEPS: list[tuple[str, str, str, dict[str, Any]]] = [
+    *[("bits", f"{b} bits {r}", "fixed", {"bits": b, "rounding": r})
+      for r in ("stochastic", "nearest") for b in (16, 8, 6, 4)],
+    *[("levels", f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n})
+      for n in (4, 16, 64, 256)],
+]
+
+
+def _profile(quick: bool) -> dict[str, int]:
+    return {"seeds": 2, "trials": 25, "sweep_seeds": 2} if quick else \
+        {"seeds": 10, "trials": 100, "sweep_seeds": 5}
+
+
+def measure_operations(backend: str, options: dict[str, Any], explore: str = "random",
+                       trials: int = 100) -> dict[str, Any]:
+    """One model trained and planned operation by operation: counters per phase."""
+    arena = GridArena.empty(30)
+    config = TrainConfig(explore=explore)
+    cml = CML.create(CMLConfig.for_arena(30), backend, 0, **options)
+    t0 = time.perf_counter()
+    train(cml, arena, config, seed=0, path="direct")
+    train_s = time.perf_counter() - t0
+    train_counters = cml.counters()
+    cml.reset_counters()
+    pairs = draw_pairs(arena, trials, EVAL_SEED)
+    res = plan(cml, arena, pairs.starts, pairs.goals, path="direct")
+    steps = int(res.steps.sum())
+    examples = [res.paths[i, : res.steps[i] + 1].tolist() for i in range(N_EXAMPLES)]
+    return {"example_paths": examples, "train_counters": train_counters,
+            "plan_counters": cml.counters(),
+            "train_steps": config.walks * config.steps, "plan_steps": steps,
+            "train_wall_s": train_s, "technology": budget.technology(cml),
+            "memory": budget.cml_memory(cml, explore, 30),
+            "factored": budget.cml_factored_traffic(cml, config.walks, config.steps)}
+
+
+def _macs(counters: dict[str, int]) -> int:
+    return counters.get("macs", 0) + counters.get("analog_macs", 0)
+
+
+def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trials: int,
+            progress: Callable[[str], None]) -> dict[str, Any]:
+    """Accuracy on the protocol and the ledger of one CML system."""
+    progress(f"{label}: protocol")
+    acc = run_protocol(backend, range(seeds), trials, path="direct", **options)
+    progress(f"{label}: operations")
+    ops = measure_operations(backend, options)
+    e_train, e_sources = budget.energy_pj(ops["technology"], ops["train_counters"])
+    e_plan, _ = budget.energy_pj(ops["technology"], ops["plan_counters"])
+    tc = ops["train_counters"]
+    cml = CML.create(CMLConfig.for_arena(30), backend, 0, **options)
+    return {
+        "label": label, "backend": backend, "options": options, "kind": "cml",
+        **{k: acc[k] for k in ("seeds", "trials", "success_rate", "e_pos_mean",
+                               "e_pos_median", "overhead_mean", "overhead_median")},
+        "curve_e_pos_mean": acc["curve_e_pos_mean"],
+        "epoch_steps": acc["epoch_walks"] * acc["steps"],
+        "parameters": cml.parameter_count(),
+        "inference_flops_formula": cml.inference_flops(),
+        "inference_flops_counted": counted_flops(_macs(ops["plan_counters"]), ops["plan_steps"]),
+        **ops["memory"],
+        "train_steps": ops["train_steps"],
+        "update_bytes_per_run_direct": tc.get("bytes_read", 0) + tc.get("bytes_written", 0),
+        "update_bytes_per_run_factored": ops["factored"]["bytes_per_run"],
+        "cells_changed_per_run": tc.get("cells_changed", tc.get("devices_written", 0)),
+        "device_pulses_per_run": tc.get("device_pulses"),
+        "coincidences_per_run": tc.get("coincidences"),
+        "energy_per_run_uj": None if e_train is None else e_train / 1e6,
+        "energy_per_action_nj": None if e_plan is None else e_plan / ops["plan_steps"] / 1e3,
+        "energy_sources": e_sources,
+        "train_wall_s": ops["train_wall_s"],
+        "protocol_wall_s": acc["wall_time_s"],
+        "train_counters": tc,
+        "plan_counters": ops["plan_counters"],
+        "plan_steps": ops["plan_steps"],
+        "example_paths": ops["example_paths"],
+        "steps_to_converge": steps_to_converge(acc["curve_e_pos_mean"],
+                                               acc["epoch_walks"] * acc["steps"]),
+    }
+
+
+def counted_flops(macs: int, steps: int) -> float:
+    """Counted FLOPs per planning step: two per multiply-accumulate."""
+    return budget.FLOPS_PER_MAC * macs / max(steps, 1)
+
+
+def steps_to_converge(curve: list[float], epoch_steps: int, tol: float = 0.1) -> int | None:
+    """Training steps until the evaluation e_pos first comes within ``tol`` of its final value."""
+    if not curve:
+        return None
+    final = curve[-1]
+    for i, e in enumerate(curve):
+        if abs(e - final) <= tol:
+            return (i + 1) * epoch_steps
+    return None
+
+
+def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+    """The DQN baseline: ledger from its real layer sizes and settings, accuracy from its
+    results file (written by ``cml-edge dqn``) when present."""
+    settings = budget.DQNSettings()
+    results = json.loads(path.read_text()) if path.is_file() else None
+    rows = []
+    for variant, steps in (("simplified", 100_000), ("tailored", 200_000)):
+        found = (results or {}).get("variants", {}).get(variant, {})
+        traffic = budget.dqn_training_traffic(settings, int(found.get("steps", steps)))
+        energy, sources = budget.dqn_energy_pj(traffic)
+        mem = budget.dqn_memory(settings)
+        macs_per_action = budget.dqn_inference_flops(settings) / budget.FLOPS_PER_MAC
+        rows.append({
+            "label": f"DQN-{variant}", "kind": "dqn",
+            **{k: found.get(k) for k in ("seeds", "trials", "success_rate", "e_pos_mean",
+                                         "e_pos_median", "overhead_mean", "overhead_median")},
+            "parameters": budget.dqn_parameter_count(settings),
+            "inference_flops_formula": budget.dqn_inference_flops(settings),
+            "inference_flops_counted": None,
+            "weight_bits": 32, "parameter_bytes": mem["parameter_bytes"],
+            "train_bytes_direct": mem["train_bytes"], "memory": mem,
+            "train_steps": int(found.get("steps", steps)),
+            "update_bytes_per_run_direct": traffic["replay_bytes"] + traffic["weight_bytes"],
+            "update_bytes_per_run_factored": None,
+            "energy_per_run_uj": energy / 1e6,
+            "energy_per_action_nj": macs_per_action * budget.COSTS["fp32_mac"].pj / 1e3,
+            "energy_sources": sources, "traffic": traffic,
+            "train_wall_s": found.get("train_wall_s"),
+            "steps_to_converge": found.get("steps_to_converge"),
+        })
+    return rows, results
+
+
+def build_report(quick: bool = False, command: str = "cml-edge report",
+                 progress: Callable[[str], None] = lambda m: None,
+                 systems: list[tuple[str, str, dict[str, Any]]] | None = None,
+                 sweeps: list[tuple[str, str, str, dict[str, Any]]] | None = None,
+                 ) -> dict[str, Any]:
+    """Everything the report shows, as one JSON-ready dict."""
+    t0 = time.perf_counter()
+    prof = _profile(quick)
+    systems = [s for s in (SYSTEMS if systems is None else systems) if s[1] in BACKENDS]
+    sweeps = [s for s in (SWEEPS if sweeps is None else sweeps) if s[2] in BACKENDS]
+    rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
+            for label, backend, opts in systems]
+    dqn, dqn_results = dqn_rows()
+    sweep_rows = []
+    for figure, label, backend, opts in sweeps:
+        progress(f"sweep {label}")
+        r = run_protocol(backend, range(prof["sweep_seeds"]), prof["trials"], path="direct",
+                         **opts)
+        sweep_rows.append({"figure": figure, "label": label, "backend": backend,
+                           "options": opts, **{k: r[k] for k in (
+                               "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "title": "cml-edge hardware-budget report",
+        "quick": quick,
+        "command": command,
+        "generated": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "versions": _versions(),
+        "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
+        "protocol": {"arena": 30, "walks": 100, "steps": 900, "seeds": prof["seeds"],
+                     "trials": prof["trials"], "eval_seed": EVAL_SEED, "max_steps": 100},
+        "systems": rows + dqn,
+        "dqn_results_file": str(DQN_RESULTS.relative_to(DQN_RESULTS.parents[2]))
+        if dqn_results is not None else None,
+        "dqn_provenance": (dqn_results or {}).get("provenance"),
+        "sweeps": sweep_rows,
+        "costs": budget.costs_table(),
+        "wall_time_s": time.perf_counter() - t0,
+    }
+
+
+def _versions() -> dict[str, str]:
+    import matplotlib
+    import numba
+    import scipy
+
+    return {"cml_edge": __version__, "python": platform.python_version(),
+            "numpy": np.__version__, "numba": numba.__version__, "scipy": scipy.__version__,
+            "matplotlib": matplotlib.__version__}
+
+
+def write_report(report: dict[str, Any], out: str | Path) -> Path:
+    """Write report.json, report.md and the figures into ``out``, all or nothing."""
+    from cml_edge.report.render import render_figures, render_markdown
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        figures = render_figures(report, tmp)
+        (tmp / "report.json").write_text(json.dumps(report, indent=1, sort_keys=True))
+        (tmp / "report.md").write_text(render_markdown(report, figures))
+        if out.exists():
+            old = out.with_name(f".{out.name}.old")
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(out, old)
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out

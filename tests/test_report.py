@@ -1,0 +1,93 @@
+"""The hardware-budget report: counts from the formulas, a schema, numbers traceable to JSON."""
+
+import json
+import re
+
+import pytest
+
+from cml_edge import budget
+from cml_edge.cml import CML
+from cml_edge.report import build_report, write_report
+from cml_edge.report.render import fmt
+
+
+def test_paper_counts_from_real_shapes():
+    s = budget.DQNSettings()
+    assert budget.dqn_parameter_count(s) == 4872 and budget.dqn_inference_flops(s) == 9472
+    cml = CML.create()
+    assert cml.parameter_count() == 4608 and cml.inference_flops() == 9464
+    assert budget.factored_accumulators(cml) == 60
+
+
+def test_memory_by_hand():
+    mem = budget.cml_memory(CML.create(backend="float32"), "mixed", 30)
+    assert mem["parameter_bytes"] == 4608 * 4
+    assert mem["train_bytes_direct"] == 4608 * 4 * 2 + 900 / 8
+    dqn = budget.dqn_memory(budget.DQNSettings())
+    assert dqn["train_bytes_replay"] == 50_000 * 36
+    assert dqn["train_bytes"] == 5 * 4872 * 4 + 50_000 * 36 + 32 * (2 + 256 + 8) * 4
+
+
+def test_energy_is_counted_with_sources_and_never_guessed():
+    e, sources = budget.energy_pj("fp32", {"macs": 10, "bytes_read": 8})
+    assert e == pytest.approx(10 * 4.6 + 8 * 1.25) and all("Horowitz" in s for s in sources)
+    assert budget.energy_pj("fp64", {"macs": 10}) == (None, [])
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    rep = build_report(quick=True, systems=[("float32", "float32", {})], sweeps=[])
+    out = tmp_path_factory.mktemp("rep") / "r"
+    write_report(rep, out)
+    return rep, out
+
+
+def test_schema(report):
+    rep, out = report
+    data = json.loads((out / "report.json").read_text())
+    for key in ("schema_version", "command", "versions", "protocol", "systems", "costs",
+                "sweeps", "generated", "wall_time_s"):
+        assert key in data
+    labels = [s["label"] for s in data["systems"]]
+    assert labels == ["float32", "DQN-simplified", "DQN-tailored"]
+    for s in data["systems"]:
+        for key in ("success_rate", "e_pos_mean", "overhead_mean", "parameters",
+                    "parameter_bytes", "train_bytes_direct", "update_bytes_per_run_direct",
+                    "energy_per_run_uj", "train_wall_s"):
+            assert key in s
+    for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def _numbers(obj):
+    if isinstance(obj, dict):
+        for v in obj.values():
+            yield from _numbers(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _numbers(v)
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield fmt(obj)
+
+
+def test_every_number_in_the_markdown_tables_is_in_the_json(report):
+    _, out = report
+    known = set(_numbers(json.loads((out / "report.json").read_text())))
+    md = (out / "report.md").read_text()
+    cells = [c.strip() for line in md.splitlines() if line.startswith("| ")
+             for c in line.strip("|").split("|")]
+    numbers = [c for c in cells if re.fullmatch(r"-?[0-9][0-9.e+-]*", c)]
+    assert numbers and all(n in known for n in numbers), [n for n in numbers if n not in known]
+
+
+def test_interrupted_report_leaves_nothing(tmp_path, monkeypatch, report):
+    rep, _ = report
+    import cml_edge.report.render as render
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(render, "render_markdown", boom)
+    with pytest.raises(KeyboardInterrupt):
+        write_report(rep, tmp_path / "r")
+    assert list(tmp_path.iterdir()) == []
