@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.crossbar_array import CrossbarArray
 from cml_edge.backends.float_array import FloatArray
 
 
@@ -27,9 +28,14 @@ class BackendSpec:
 BACKENDS: dict[str, BackendSpec] = {
     "float": BackendSpec(FloatArray, {"dtype": "float64"}, "float64 reference"),
     "float32": BackendSpec(FloatArray, {"dtype": "float32"}, "float32 weights and arithmetic"),
+    "crossbar": BackendSpec(CrossbarArray, {"preset": CrossbarArray.DEFAULT_PRESET},
+                            "memristive crossbar: --preset ideal|pcm|reram, --levels, --set"),
 }
 
-ARRAY_CLASSES: dict[str, type[SynapticArray]] = {"float": FloatArray}
+ARRAY_CLASSES: dict[str, type[SynapticArray]] = {
+    "float": FloatArray,
+    "crossbar": CrossbarArray,
+}
 
 
 def backend_spec(name: str) -> BackendSpec:

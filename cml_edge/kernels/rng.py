@@ -45,11 +45,22 @@ def stream_key(seed, stream):
     return mix64(mix64(np.uint64(seed) + _GOLDEN) ^ (np.uint64(stream) * _GOLDEN))
 
 
+@njit("uint64(uint64, uint64)", cache=True)
+def word(key, counter):
+    """The raw 64-bit word at position ``counter`` of stream ``key``."""
+    return mix64(np.uint64(key) + np.uint64(counter) * _GOLDEN)
+
+
+@njit("float64(uint64)", cache=True)
+def unit(z):
+    """A 64-bit word as a float64 on [0, 1) (its top 53 bits)."""
+    return float(z >> np.uint64(11)) * _TWO_M53
+
+
 @njit("float64(uint64, uint64)", cache=True)
 def uniform(key, counter):
     """A float64 uniform on [0, 1) at position ``counter`` of stream ``key``."""
-    z = mix64(np.uint64(key) + np.uint64(counter) * _GOLDEN)
-    return float(z >> np.uint64(11)) * _TWO_M53
+    return unit(word(key, counter))
 
 
 @njit("int64(uint64, uint64, int64)", cache=True)

@@ -1,0 +1,69 @@
+"""Conductance grids and the weight <-> conductance map of a differential pair.
+
+A signed weight w lives on a pair of devices, W = (G+ - G-) / g_per_w, each device in
+[g_min, g_max] (micro-siemens). The pair is *balanced* (two-sided, CrossSim's
+``TWO_SIDED``): both devices sit at the centre g_c = (g_min + g_max) / 2 for w = 0 and
+move in opposite directions,
+
+    G+ = g_c + w g_per_w / 2,    G- = g_c - w g_per_w / 2,    g_per_w = (g_max - g_min) / w_max,
+
+so |w| = w_max puts one device at g_max and the other at g_min. w_max, the weight of a
+full conductance swing, is the stated weight-to-conductance scale of an array.
+
+A device has ``levels`` evenly spaced programmable states on [g_min, g_max] (0: a
+continuous conductance), spaced dG = (g_max - g_min) / (levels - 1). One coincidence of
+the pulsed update moves each device of the pair by one level, so the weight's nominal
+step is dw_min = 2 dG / g_per_w = 2 w_max / (levels - 1).
+
+Programming noise (write-verify; IBM aihwkit ``PCMLikeNoiseModel``): a device
+programmed to the target G ends at G + N(0, sigma_prog(G)^2) with
+
+    sigma_prog(G) = scale * max(c0 + c1 g + c2 g^2, 0) * g_max / g_ref,   g = G / g_max,
+
+c in micro-siemens at the reference g_max = g_ref: PCM c = (0.26348, 1.9650, -1.1731),
+g_ref = 25 uS (aihwkit); ReRAM (Milo et al. IRPS 2021, via Sandia CrossSim's
+``RRAM_Milo``) sigma = max(4.782321 - 0.009107 G, 0) uS, i.e. c = (4.782321,
+-0.009107 x 225, 0) at g_ref = g_max = 225 uS.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def snap_to_level(g, g_min, g_max, dG):
+    """The grid level nearest g, clipped to [g_min, g_max] (dG = 0: g clipped only)."""
+    if dG > 0.0:
+        g = g_min + math.floor((g - g_min) / dG + 0.5) * dG
+    return min(max(g, g_min), g_max)
+
+
+@njit(cache=True)
+def prog_sigma(G, scale, c0, c1, c2, g_ref, g_max):
+    """sigma_prog(G) of the module docstring (micro-siemens)."""
+    if scale == 0.0:
+        return 0.0
+    g = G / g_max
+    s = c0 + c1 * g + c2 * g * g
+    if s < 0.0:
+        return 0.0
+    return scale * s * g_max / g_ref
+
+
+def weights_to_pair(W: np.ndarray, g_min: float, g_max: float,
+                    w_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """(G+, G-) of the balanced map for W clipped to [-w_max, w_max] (no grid, no noise)."""
+    g_c = 0.5 * (g_min + g_max)
+    half = 0.5 * (g_max - g_min) / w_max
+    w = np.clip(np.asarray(W, dtype=np.float64), -w_max, w_max)
+    return g_c + w * half, g_c - w * half
+
+
+def pair_to_weights(Gp: np.ndarray, Gm: np.ndarray, g_min: float, g_max: float,
+                    w_max: float) -> np.ndarray:
+    """W = (G+ - G-) / g_per_w."""
+    return (np.asarray(Gp) - np.asarray(Gm)) * (w_max / (g_max - g_min))
