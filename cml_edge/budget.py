@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from cml_edge.baselines import mlp_inference_flops, mlp_parameter_count
 from cml_edge.cml import CML
 
 FLOPS_PER_MAC = 2
@@ -146,19 +147,18 @@ class DQNSettings:
     transition_bytes: int = 2 * 2 * 4 + 8 + 3 * 4
 
     @property
-    def layers(self) -> list[tuple[int, int]]:
-        sizes = [self.n_in, *self.hidden, self.n_out]
-        return list(zip(sizes[:-1], sizes[1:]))
+    def layers(self) -> tuple[int, ...]:
+        return (self.n_in, *self.hidden, self.n_out)
 
 
 def dqn_parameter_count(s: DQNSettings) -> int:
     """Weights and biases of the dense layers: 4,872 for 2-64-64-8."""
-    return sum(i * o + o for i, o in s.layers)
+    return mlp_parameter_count(s.layers)
 
 
 def dqn_inference_flops(s: DQNSettings) -> int:
     """The paper's count, 2 N_x N_y per dense layer: 9,472 for 2-64-64-8."""
-    return sum(2 * i * o for i, o in s.layers)
+    return mlp_inference_flops(s.layers)
 
 
 def dqn_memory(s: DQNSettings) -> dict[str, float]:

@@ -19,12 +19,13 @@ import numpy as np
 from cml_edge import __version__
 from cml_edge.arena import GridArena
 from cml_edge.backends import BACKENDS, backend_spec
+from cml_edge.baselines.dqn import add_dqn_parser, cmd_dqn
 from cml_edge.cml import CML, UTILITIES, CMLConfig
 from cml_edge.evaluation import EVAL_SEED, evaluate_model, run_protocol
 from cml_edge.exploration import EXPLORATIONS
 from cml_edge.learning import SCHEDULES
 from cml_edge.metrics import Pairs, draw_pairs, geodesic_distances
-from cml_edge.planning import MAX_STEPS, plan
+from cml_edge.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.storage import ModelFileError, atomic_write, load_model, save_model
 from cml_edge.training import PATHS, TrainConfig, train
 
@@ -128,9 +129,53 @@ def _add_eval(p: argparse.ArgumentParser) -> None:
     p.add_argument("--obstacles", type=nonneg_int, default=0,
                    help="point obstacles placed at evaluation only (0)")
     p.add_argument("--trials", type=positive_int, default=100, help="(start, goal) pairs (100)")
-    p.add_argument("--max-steps", type=positive_int, default=MAX_STEPS,
-                   help="planning step budget (100)")
+    p.add_argument("--max-steps", type=positive_int, default=None,
+                   help="planning step budget (100; with --map: max(100, ceil(100 x side / "
+                        "30)))")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def _add_planner(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--planner", choices=PLANNERS, default="paper",
+                   help="paper: WTA over utility x affordance (the paper's); escape: the "
+                        "paper's WTA plus a reactive escape when it would revisit a cell "
+                        "(boundary following, LRTA* fallback; see cml_edge.planning)")
+
+
+def _add_map(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--map", default=None, metavar="FILE",
+                   help="plan on a MovingAI .map file (or a shipped map: rooms, utrap, "
+                        "maze); the CML never sees it in training")
+    p.add_argument("--scen", default=None, metavar="FILE",
+                   help="MovingAI .scen file: its (start, goal) problems replace the drawn "
+                        "pairs (needs --map)")
+
+
+def _load_map_args(args: argparse.Namespace):
+    """(GridMap, Pairs or None) of --map / --scen, or (None, None); checks the options."""
+    from cml_edge.maps import load_map, load_scen, resolve_map, scenario_pairs
+
+    if getattr(args, "scen", None) and not args.map:
+        raise InputError("--scen needs --map")
+    if not args.map:
+        return None, None
+    if getattr(args, "obstacles", 0):
+        raise InputError(f"--obstacles {args.obstacles} cannot be combined with --map (the map "
+                         f"is the evaluation arena)")
+    grid = load_map(resolve_map(args.map))
+    pairs = None
+    if getattr(args, "scen", None):
+        pairs = scenario_pairs(grid, load_scen(args.scen), args.scen)
+    return grid, pairs
+
+
+def _budget(args: argparse.Namespace, side: int, on_map: bool) -> int:
+    """--max-steps, or by default 100 (the paper's) and step_budget(side) on a map."""
+    from cml_edge.maps import step_budget
+
+    if args.max_steps is not None:
+        return args.max_steps
+    return step_budget(side) if on_map else MAX_STEPS
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -154,6 +199,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED,
                    help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
     p.add_argument("--path", choices=PATHS, default=None, help="compute path (see train)")
+    _add_planner(p)
+    _add_map(p)
 
     p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
     p.add_argument("model", help="model file (.npz)")
@@ -163,7 +210,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="arena side (default: the training arena)")
     p.add_argument("--obstacles", type=nonneg_int, default=0, help="point obstacles (0)")
     p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED, help="obstacle seed")
-    p.add_argument("--max-steps", type=positive_int, default=MAX_STEPS)
+    p.add_argument("--max-steps", type=positive_int, default=None,
+                   help="step budget (100; with --map: max(100, ceil(100 x side / 30)))")
+    _add_planner(p)
+    _add_map(p)
     p.add_argument("--plot", help="write a PNG of the arena and the path")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
@@ -179,6 +229,28 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seconds between the end of training and evaluation; arrays that "
                         "drift (crossbar) apply it (0)")
     p.add_argument("--out", help="also write the JSON result to this file")
+    _add_planner(p)
+    _add_map(p)
+
+    p = sub.add_parser("sweep", help="run an experiment's (configuration x seed) tasks on a "
+                       "local process pool or a Dask cluster; resumable")
+    p.add_argument("experiment", help="convergence, hyperparams, exploration, generalization, "
+                   "obstacles, maps or backends")
+    p.add_argument("--out", default=None, help="folder (default runs/experiments/EXPERIMENT)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on this Dask distributed scheduler (e.g. tcp://host:8786; needs "
+                        "the distributed extra)")
+    p.add_argument("--seeds", type=positive_int, default=10, help="model seeds 0..N-1 (10)")
+    p.add_argument("--planner", choices=PLANNERS, default=None,
+                   help="only this planner (default: the experiment's: both for obstacles "
+                        "and maps, paper elsewhere)")
+    p.add_argument("--map", default=None, metavar="FILE",
+                   help="a MovingAI .map file (or shipped map name): maps and exploration "
+                        "experiments")
+    p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
     p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
                        "figures)")
@@ -193,6 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="backends to time (default: all registered)")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    add_dqn_parser(sub)
     return parser
 
 
@@ -241,19 +314,34 @@ def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    grid, scen_pairs = _load_map_args(args)
+    if grid is not None and args.arena is not None:
+        raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
+                         f"the arena)")
     cml, record = _load(args.model)
-    arena = _eval_arena(args, record)
-    pairs = draw_pairs(arena, args.trials, args.seed)
+    arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = _default_path(cml.backend, "walk", args.path)
-    result = evaluate_model(cml, arena, pairs, path=path, max_steps=args.max_steps)
-    return {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
-            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
-            "path": path}
+    budget = _budget(args, arena.size, grid is not None)
+    result = evaluate_model(cml, arena, pairs, path=path, max_steps=budget,
+                            planner=args.planner)
+    out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
+           "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
+           "path": path, "planner": args.planner, "max_steps": budget}
+    if grid is not None:
+        out.update({"map": args.map, "scen": args.scen})
+    return out
 
 
 def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
+    if args.scen:
+        raise InputError("--scen is not used by navigate (give --start and --goal)")
+    grid, _ = _load_map_args(args)
+    if grid is not None and args.arena is not None:
+        raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
+                         f"the arena)")
     cml, record = _load(args.model)
-    arena = _eval_arena(args, record)
+    arena = grid.arena() if grid is not None else _eval_arena(args, record)
     for name, pos in (("start", args.start), ("goal", args.goal)):
         if not arena.contains(pos):
             raise InputError(f"--{name} {pos[0]} {pos[1]} is off the {arena.size} x "
@@ -261,8 +349,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
         if not arena.is_free(pos):
             raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
     starts, goals = np.array([args.start]), np.array([args.goal])
-    res = plan(cml, arena, starts, goals, max_steps=args.max_steps,
-               path=_default_path(cml.backend, "walk", None))
+    res = plan(cml, arena, starts, goals, max_steps=_budget(args, arena.size, grid is not None),
+               path=_default_path(cml.backend, "walk", None), planner=args.planner)
     steps = int(res.steps[0])
     trajectory = res.paths[0, : steps + 1]
     pairs = Pairs(starts, goals, np.abs(starts - goals).max(1),
@@ -272,7 +360,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
            "steps": steps, "reached": bool((final == goals[0]).all()),
            "e_pos": float(np.linalg.norm(final - goals[0])),
            "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
-           "path": trajectory.tolist()}
+           "planner": args.planner, "path": trajectory.tolist()}
     if args.plot:
         from cml_edge.plots import plot_navigation
 
@@ -285,13 +373,26 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     if args.drift_time < 0:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
     options = _backend_options(args)
+    grid, scen_pairs = _load_map_args(args)
+    size = args.arena
+    if grid is not None:
+        if args.arena not in (30, grid.side):  # 30: the default, replaced by the map's side
+            raise InputError(f"--arena {args.arena} conflicts with --map ({grid.side} x "
+                             f"{grid.side}); leave --arena out")
+        size = grid.side
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
     path = args.path or "direct"
-    result = run_protocol(args.backend, range(args.seeds), args.trials, args.arena,
+    result = run_protocol(args.backend, range(args.seeds), args.trials, size,
                           args.obstacles, config,
-                          CMLConfig.for_arena(args.arena, utility=args.utility),
+                          CMLConfig.for_arena(size, utility=args.utility),
                           eval_seed=args.eval_seed, path=path, idle_s=args.drift_time,
-                          progress=Progress(f"emulate {args.backend}"), **options)
+                          progress=Progress(f"emulate {args.backend}"),
+                          planner=args.planner,
+                          max_steps=_budget(args, size, grid is not None),
+                          eval_arena=grid.arena() if grid is not None else None,
+                          pairs=scen_pairs, **options)
+    if grid is not None:
+        result.update({"map": args.map, "scen": args.scen})
     result["command"] = "cml-edge " + " ".join(sys.argv[1:])
     result["cml_edge_version"] = __version__
     if args.out:
@@ -324,8 +425,34 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
     return run_bench(names, repeats=args.repeats, progress=Progress("bench"))
 
 
+def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge import experiments
+    from cml_edge.experiments.common import markdown_table, run_experiment
+
+    module = experiments.get(args.experiment)
+    if args.scen and not args.map:
+        raise InputError("--scen needs --map")
+    if args.map:  # fail on a bad file now, before any task runs
+        from cml_edge.maps import load_map, load_scen, resolve_map
+
+        load_map(resolve_map(args.map))
+        if args.scen:
+            load_scen(args.scen)
+    summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
+                             progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
+                             planner=args.planner, map=args.map, scen=args.scen)
+    summary["command"] = "cml-edge " + " ".join(sys.argv[1:])
+    if not args.json:
+        print(markdown_table(summary["rows"], module.COLUMNS))
+        print(f"results: {summary['out']}/results.json, results.csv, figure.png")
+        summary["_printed"] = True
+    return summary
+
+
 COMMANDS = {"train": cmd_train, "evaluate": cmd_evaluate, "navigate": cmd_navigate,
-            "emulate": cmd_emulate, "report": cmd_report, "bench": cmd_bench}
+            "emulate": cmd_emulate, "report": cmd_report, "bench": cmd_bench,
+            "sweep": cmd_sweep}
+COMMANDS["dqn"] = cmd_dqn
 
 
 def _print_human(command: str, result: dict[str, Any]) -> None:
@@ -356,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     if getattr(args, "json", False):
         print(json.dumps(result))
-    else:
+    elif not result.get("_printed"):
         _print_human(args.command, result)
     return 0
 

@@ -7,6 +7,13 @@ placed from the evaluation seed). Pairs come from the evaluation seed, so every
 method and backend sees the same pairs. Pooled metrics are over all seeds x trials.
 ``idle_s`` seconds pass between the end of training and the evaluation (each array's
 ``elapse``: drift on a crossbar, nothing on a digital array).
+
+The evaluation arena may differ from the training arena: a larger empty arena
+(``eval_size``, the generalisation experiment of Figure 7) or a map
+(``eval_arena``, e.g. :meth:`cml_edge.maps.GridMap.arena`) of the training size, with
+its own pairs (``pairs``, e.g. a MovingAI scenario file). The CML never sees either
+while training: it is trained in the empty arena of ``arena_size``. ``planner`` and
+``max_steps`` choose the planner and its step budget (:mod:`cml_edge.planning`).
 """
 
 from __future__ import annotations
@@ -20,17 +27,24 @@ import numpy as np
 from cml_edge.arena import GridArena
 from cml_edge.cml import CML, CMLConfig
 from cml_edge.metrics import Pairs, draw_pairs, e_pos, summarize
-from cml_edge.planning import MAX_STEPS, plan
+from cml_edge.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.training import TrainConfig, train
 
 EVAL_SEED = 123
 
 
 def evaluate_model(cml: CML, arena: GridArena, pairs: Pairs, path: str = "direct",
-                   max_steps: int = MAX_STEPS) -> dict[str, Any]:
+                   max_steps: int = MAX_STEPS, planner: str = "paper") -> dict[str, Any]:
     """Plan every pair and summarise (Eqs. 8, 9)."""
-    res = plan(cml, arena, pairs.starts, pairs.goals, max_steps=max_steps, path=path)
+    res = plan(cml, arena, pairs.starts, pairs.goals, max_steps=max_steps, path=path,
+               planner=planner)
     return summarize(res.final, res.steps, pairs)
+
+
+def pool_pairs(pairs: Pairs, times: int) -> Pairs:
+    """``pairs`` repeated ``times`` times (pooling the trials of several models)."""
+    return Pairs(*(np.concatenate([a] * times) for a in
+                   (pairs.starts, pairs.goals, pairs.chebyshev, pairs.geodesic)))
 
 
 def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trials: int = 100,
@@ -39,15 +53,32 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
                  eval_seed: int = EVAL_SEED, path: str = "direct", epoch: int = 10,
                  idle_s: float = 0.0,
                  progress: Callable[[int, int], None] | None = None,
+                 planner: str = "paper", max_steps: int = MAX_STEPS,
+                 eval_size: int | None = None, eval_arena: GridArena | None = None,
+                 pairs: Pairs | None = None,
                  **backend_options: Any) -> dict[str, Any]:
-    """Train and evaluate one model per seed; the JSON-ready result of ``emulate``."""
+    """Train and evaluate one model per seed; the JSON-ready result of ``emulate``.
+
+    Obstacles (``obstacles`` > 0) are placed from ``eval_seed`` on the evaluation arena:
+    the empty arena of ``eval_size`` (default ``arena_size``), or ``eval_arena``.
+    """
+    if planner not in PLANNERS:
+        raise ValueError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
     train_config = train_config or TrainConfig()
     cml_config = cml_config or CMLConfig.for_arena(arena_size)
     train_arena = GridArena.empty(arena_size)
-    eval_arena = (GridArena.with_obstacles(arena_size, obstacles, eval_seed) if obstacles
-                  else train_arena)
+    if eval_arena is not None and eval_size is not None:
+        raise ValueError("give eval_size or eval_arena, not both")
+    if eval_arena is None:
+        size = eval_size or arena_size
+        eval_arena = (GridArena.with_obstacles(size, obstacles, eval_seed) if obstacles
+                      else GridArena.empty(size))
+    elif obstacles:
+        raise ValueError("obstacles are placed on an empty arena, not on a map")
     curve_pairs = draw_pairs(train_arena, trials, eval_seed)
-    pairs = draw_pairs(eval_arena, trials, eval_seed)
+    if pairs is None:
+        pairs = draw_pairs(eval_arena, trials, eval_seed)
+    trials = len(pairs.starts)
     seeds = list(seeds)
     finals, steps, per_seed, curves, train_errors = [], [], [], [], []
     counters: dict[str, int] = {}
@@ -64,7 +95,8 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
                                   on_epoch=on_epoch).tolist())
         for arr in cml.arrays:  # time between programming and use (drift, retention)
             arr.elapse(idle_s)
-        res = plan(cml, eval_arena, pairs.starts, pairs.goals, path=path)
+        res = plan(cml, eval_arena, pairs.starts, pairs.goals, max_steps=max_steps, path=path,
+                   planner=planner)
         finals.append(res.final)
         steps.append(res.steps)
         per_seed.append({"seed": int(seed), **summarize(res.final, res.steps, pairs)})
@@ -73,9 +105,8 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
             counters[k] = counters.get(k, 0) + v
         if progress is not None:
             progress(n + 1, len(seeds))
-    pooled_pairs = Pairs(*(np.concatenate([a] * len(seeds)) for a in
-                           (pairs.starts, pairs.goals, pairs.chebyshev, pairs.geodesic)))
-    pooled = summarize(np.concatenate(finals), np.concatenate(steps), pooled_pairs)
+    pooled = summarize(np.concatenate(finals), np.concatenate(steps),
+                       pool_pairs(pairs, len(seeds)))
     return {
         "backend": backend,
         "seeds": len(seeds),
@@ -83,7 +114,10 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         **pooled,
         "trials": int(trials),
         "arena": int(arena_size),
+        "eval_arena": int(eval_arena.size),
         "obstacles": int(obstacles),
+        "planner": planner,
+        "max_steps": int(max_steps),
         "eval_seed": int(eval_seed),
         "explore": train_config.explore,
         "walks": train_config.walks,

@@ -49,7 +49,7 @@ def test_schema(report):
                 "sweeps", "generated", "wall_time_s"):
         assert key in data
     labels = [s["label"] for s in data["systems"]]
-    assert labels == ["float32", "DQN-simplified", "DQN-tailored"]
+    assert labels == ["float32", "DQN-simplified", "DQN-tailored", "DQN-goal-conditioned"]
     for s in data["systems"]:
         for key in ("success_rate", "e_pos_mean", "overhead_mean", "parameters",
                     "parameter_bytes", "train_bytes_direct", "update_bytes_per_run_direct",

@@ -1,1 +1,22 @@
-"""Experiments: each module reads top to bottom and reruns with ``python -m``."""
+"""The paper's experiments as commands (``cml-edge sweep NAME``), plus two past it.
+
+One readable module per experiment; each lists its (configuration x seed) tasks for
+the sweep engine (:mod:`cml_edge.sweep`) and writes ``results.json``, ``results.csv``
+and ``figure.png`` (:mod:`cml_edge.experiments.common`). ``choices`` is a standalone
+script (``python -m cml_edge.experiments.choices``), not a sweep.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from types import ModuleType
+
+EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "obstacles",
+               "maps", "backends")
+
+
+def get(name: str) -> ModuleType:
+    """The module of experiment ``name``; ValueError naming the allowed ones otherwise."""
+    if name not in EXPERIMENTS:
+        raise ValueError(f"unknown experiment {name!r}; allowed: {', '.join(EXPERIMENTS)}")
+    return import_module(f"cml_edge.experiments.{name}")

@@ -27,6 +27,7 @@ import numpy as np
 from cml_edge import __version__, budget
 from cml_edge.arena import GridArena
 from cml_edge.backends import BACKENDS
+from cml_edge.baselines import load_results
 from cml_edge.cml import CML, CMLConfig
 from cml_edge.evaluation import EVAL_SEED, run_protocol
 from cml_edge.metrics import draw_pairs
@@ -145,35 +146,45 @@ def steps_to_converge(curve: list[float], epoch_steps: int, tol: float = 0.1) ->
     return None
 
 
+DQN_VARIANTS = (("DQN-simplified", "simplified", False), ("DQN-tailored", "tailored", False),
+                ("DQN-goal-conditioned", "tailored", True))
+
+
 def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
-    """The DQN baseline: ledger from its real layer sizes and settings, accuracy from its
-    results file (written by ``cml-edge dqn``) when present."""
-    settings = budget.DQNSettings()
-    results = json.loads(path.read_text()) if path.is_file() else None
+    """The DQN baselines: the ledger from each network's real layer sizes and training
+    settings, accuracy and times from the results file ``cml-edge dqn`` wrote, if any."""
+    results = load_results(path)
+    evaluations = (results or {}).get("evaluations", {}).values()
     rows = []
-    for variant, steps in (("simplified", 100_000), ("tailored", 200_000)):
-        found = (results or {}).get("variants", {}).get(variant, {})
-        traffic = budget.dqn_training_traffic(settings, int(found.get("steps", steps)))
+    for label, reward, goal_conditioned in DQN_VARIANTS:
+        ev = next((e for e in evaluations if e["reward"] == reward
+                   and e["goal_conditioned"] == goal_conditioned), {})
+        settings = budget.DQNSettings(n_in=4 if goal_conditioned else 2)
+        steps = int(ev.get("train_steps", 100_000 if reward == "simplified" else 200_000))
+        traffic = budget.dqn_training_traffic(settings, steps)
         energy, sources = budget.dqn_energy_pj(traffic)
         mem = budget.dqn_memory(settings)
         macs_per_action = budget.dqn_inference_flops(settings) / budget.FLOPS_PER_MAC
         rows.append({
-            "label": f"DQN-{variant}", "kind": "dqn",
-            **{k: found.get(k) for k in ("seeds", "trials", "success_rate", "e_pos_mean",
-                                         "e_pos_median", "overhead_mean", "overhead_median")},
+            "label": label, "kind": "dqn",
+            "pairs": "protocol" if goal_conditioned else "fixed goal per seed",
+            **{k: ev.get(k) for k in ("seeds", "trials", "success_rate", "e_pos_mean",
+                                      "e_pos_median", "overhead_mean", "overhead_median")},
             "parameters": budget.dqn_parameter_count(settings),
             "inference_flops_formula": budget.dqn_inference_flops(settings),
             "inference_flops_counted": None,
             "weight_bits": 32, "parameter_bytes": mem["parameter_bytes"],
             "train_bytes_direct": mem["train_bytes"], "memory": mem,
-            "train_steps": int(found.get("steps", steps)),
+            "train_steps": steps,
             "update_bytes_per_run_direct": traffic["replay_bytes"] + traffic["weight_bytes"],
             "update_bytes_per_run_factored": None,
             "energy_per_run_uj": energy / 1e6,
             "energy_per_action_nj": macs_per_action * budget.COSTS["fp32_mac"].pj / 1e3,
             "energy_sources": sources, "traffic": traffic,
-            "train_wall_s": found.get("train_wall_s"),
-            "steps_to_converge": found.get("steps_to_converge"),
+            "train_wall_s": ev.get("train_wall_s_mean"),
+            "steps_to_converge": (ev.get("convergence") or {}).get("step"),
+            "curve_steps": ev.get("curve_steps"),
+            "curve_e_pos_mean": ev.get("curve_e_pos_mean"),
         })
     return rows, results
 
@@ -212,7 +223,9 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         "systems": rows + dqn,
         "dqn_results_file": str(DQN_RESULTS.relative_to(DQN_RESULTS.parents[2]))
         if dqn_results is not None else None,
-        "dqn_provenance": (dqn_results or {}).get("provenance"),
+        "dqn_runs": {k: {"seeds_done": sorted((v.get("seeds") or {}).keys()),
+                         "steps": v.get("steps")}
+                     for k, v in (dqn_results or {}).get("runs", {}).items()},
         "sweeps": sweep_rows,
         "costs": budget.costs_table(),
         "wall_time_s": time.perf_counter() - t0,

@@ -75,7 +75,10 @@ def render_markdown(report: dict[str, Any], figures: dict[str, str]) -> str:
         "Training memory: CML, the weights plus the per-walk update accumulator at the "
         "array's accumulator width (and the visited-cell bitmap under mixed exploration); "
         "DQN, online and target networks, gradients, two Adam moments, the replay buffer "
-        "and the minibatch activations kept for backpropagation. Update traffic per run: "
+        "and the minibatch activations kept for backpropagation. DQN-simplified and "
+        "DQN-tailored see only (x, y), so each network has one fixed goal (its own pairs); "
+        "the goal-conditioned DQN and the CML rows use the protocol's pairs. "
+        "Update traffic per run: "
         "CML, bytes the array read and wrote while learning (digital arrays; the crossbar "
         "moves pulses, below); DQN, replay writes and minibatch reads plus weight, gradient "
         "and optimizer traffic. n/a where no sourced figure exists (float64 energy) or the "
@@ -126,15 +129,23 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
         plt.close(fig)
         files[title] = name
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     for s in cml:
         curve = s["curve_e_pos_mean"]
-        ax.plot(np.arange(1, len(curve) + 1) * s["epoch_steps"], curve, "-o", ms=3,
-                label=s["label"])
-    ax.set_xlabel("training steps")
-    ax.set_ylabel("mean e_pos on the evaluation pairs")
-    ax.set_title("Convergence (paper Figure 4B)")
-    ax.legend(fontsize=7)
+        axes[0].plot(np.arange(1, len(curve) + 1) * s["epoch_steps"], curve, "-o", ms=3,
+                     label=s["label"])
+    axes[0].set_title("CML (paper Figure 4B)")
+    for s in report["systems"]:
+        if s["kind"] == "dqn" and s.get("curve_steps"):
+            axes[1].plot(s["curve_steps"], s["curve_e_pos_mean"], "-o", ms=3,
+                         label=f"{s['label']} ({s['seeds']} seed(s))")
+    axes[1].set_title("DQN (paper Figure 4A, evaluation error)")
+    for ax in axes:
+        ax.set_xlabel("training steps")
+        ax.set_ylabel("mean e_pos on the evaluation pairs")
+        ax.set_yscale("symlog", linthresh=0.1)
+        if ax.lines:
+            ax.legend(fontsize=7)
     save(fig, "convergence.png", "convergence")
 
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))

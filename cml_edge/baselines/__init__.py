@@ -1,0 +1,89 @@
+"""Baselines the CML is compared with (paper 2.3): a DQN on stable-baselines3.
+
+This package's ``__init__`` imports nothing heavy: the counts below and the stored
+results are available without the optional ``dqn`` extra, so the hardware-budget report
+can read them on a machine without torch. Training and evaluating the DQN
+(:mod:`cml_edge.baselines.dqn`, ``cml-edge dqn``) import torch, stable-baselines3 and
+gymnasium only when they run.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+RESULTS_FORMAT = "cml-edge-dqn-results"
+RESULTS_VERSION = 1
+DEFAULT_RESULTS = Path("hw_reports") / "baselines" / "dqn_results.json"
+
+# The paper's DQN (2.3): 2 inputs (x, y), two hidden layers of 64 (ReLU), 8 actions.
+PAPER_LAYERS = (2, 64, 64, 8)
+GOAL_CONDITIONED_LAYERS = (4, 64, 64, 8)
+
+
+def mlp_parameter_count(layers: Sequence[int]) -> int:
+    """Weights and biases of a dense network: sum of n_in * n_out + n_out per layer.
+
+    For (2, 64, 64, 8): 192 + 4,160 + 520 = 4,872. The paper (2.4.3, 3.1) prints 4,874:
+    its formula adds 1 x N_i input "biases" (2 of them) that a dense layer does not have.
+    """
+    return sum(a * b + b for a, b in zip(layers[:-1], layers[1:]))
+
+
+def mlp_inference_flops(layers: Sequence[int]) -> int:
+    """FLOPs per forward pass by the paper's formula (2.4.3): 2 N_x N_y per dense layer
+    (biases and ReLUs not counted). For (2, 64, 64, 8): 9,472."""
+    return sum(2 * a * b for a, b in zip(layers[:-1], layers[1:]))
+
+
+def load_results(path: str | Path = DEFAULT_RESULTS) -> dict[str, Any] | None:
+    """The stored DQN results (what ``cml-edge dqn train|evaluate`` wrote), or None.
+
+    Needs no extra: this is how the hardware-budget report reads the baseline.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return None
+    data = json.loads(path.read_text())
+    if data.get("format") != RESULTS_FORMAT:
+        raise ValueError(f"{str(path)!r} is not a cml-edge DQN results file")
+    return data
+
+
+TABLE_KEYS = ("success_rate", "e_pos_mean", "e_pos_median", "overhead_mean", "overhead_median")
+
+
+def results_table(data: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per evaluated DQN and per CML on the same pairs (no extra needed).
+
+    Rows: method, pairs ("fixed goal per seed" or "protocol"), seeds, pooled trials,
+    training steps, and the protocol metrics of :data:`TABLE_KEYS`.
+    """
+    rows: list[dict[str, Any]] = []
+    seen_cml: set[tuple[str, int]] = set()
+    for ev in data.get("evaluations", {}).values():
+        pairs = "protocol" if ev["goal_conditioned"] else "fixed goal per seed"
+        rows.append({"method": f"DQN {ev['config']}", "pairs": pairs, "seeds": ev["seeds"],
+                     "trials": ev["seeds"] * ev["trials"], "train_steps": ev["train_steps"],
+                     **{k: ev[k] for k in TABLE_KEYS}})
+        cml = ev.get("cml", {}).get("factored")
+        if cml is not None and (pairs, ev["seeds"]) not in seen_cml:
+            seen_cml.add((pairs, ev["seeds"]))
+            rows.append({"method": "CML (random walks, float64)", "pairs": pairs,
+                         "seeds": cml["seeds"], "trials": cml["trials"],
+                         "train_steps": cml["walks"] * cml["steps_per_walk"],
+                         **{k: cml[k] for k in TABLE_KEYS}})
+    return rows
+
+
+def markdown_table(rows: Sequence[dict[str, Any]]) -> str:
+    """The rows of :func:`results_table` as a markdown table."""
+    def f(v: Any) -> str:
+        return "n/a" if v is None else f"{v:.3f}" if isinstance(v, float) else str(v)
+
+    head = ["method", "pairs", "seeds", "trials", "train_steps", *TABLE_KEYS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(f(r[k]) for k in head) + " |" for r in rows]
+    return "\n".join(lines)

@@ -1,0 +1,605 @@
+"""DQN baseline (paper 2.3, 3.1): train, evaluate, compare with the CML on the same pairs.
+
+The network is the paper's: inputs -> 64 -> 64 -> 8 actions, ReLU (4,872 parameters
+with (x, y) inputs; 9,472 FLOPs per action by the paper's formula; see
+:mod:`cml_edge.baselines`). It is trained with stable-baselines3's DQN using the
+hyperparameters of the original stable-baselines DQN ("the already tuned implementation
+from Hill et al., 2018"), listed in :data:`HYPERPARAMS`. SB3's DQN is *vanilla* DQN: the
+original stable-baselines also used Double-Q targets and a dueling head by default, which
+SB3 does not implement. SB3's own defaults are Atari settings and did not learn this task.
+
+Environments: :mod:`cml_edge.gym_envs` (stay in place on a blocked move, goal ends the
+episode, truncation at 100 steps, Eq. 6 or Eq. 7 rewards).
+
+What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
+(:func:`cml_edge.metrics.summarize`), ``predict(deterministic=True)``:
+
+- **fixed-goal DQN** (the paper's: it sees only (x, y), so each trained network has one
+  goal). The goal of seed s is the goal of protocol pair s, i.e. of
+  ``draw_pairs(arena, s + 1, eval_seed).goals[s]`` (evaluation seed 123), and it is
+  evaluated from ``trials`` starts drawn uniformly among the other free cells by
+  ``numpy.random.default_rng((eval_seed, s))`` (:func:`fixed_goal_pairs`). Training
+  episodes start on uniformly random cells. The CML of seed s (trained by
+  :func:`cml_edge.training.train`, factored path) is evaluated on exactly these pairs.
+- **goal-conditioned DQN** (inputs x, y, goal x, goal y; each training episode draws a
+  goal): evaluated on the standard protocol pairs ``draw_pairs(arena, trials,
+  eval_seed)``, as the CML is.
+
+Convergence (for the training-time ratio). Every method's seed-mean evaluation e_pos
+curve is sampled during training (DQN: every ``eval_every`` = 5,000 steps; CML: every
+walk of 900 steps). Its convergence point is the first evaluation from which the curve
+stays within :data:`CONVERGENCE_TOL` = 0.5 cells (half a grid cell) of its final value.
+Time to convergence is the seed-mean training time up to that point, evaluation time
+excluded (wall-clock and process CPU time both recorded; CPU time is the steadier figure
+while other jobs share the machine).
+
+Results go to one JSON file (default ``hw_reports/baselines/dqn_results.json``) written
+atomically after every seed, with provenance; ``train`` skips seeds already in it, so an
+interrupted run resumes. Models (SB3 zips) go to ``--models`` (default ``runs/dqn``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__
+from cml_edge.arena import GridArena
+from cml_edge.baselines import (
+    DEFAULT_RESULTS,
+    GOAL_CONDITIONED_LAYERS,
+    PAPER_LAYERS,
+    RESULTS_FORMAT,
+    RESULTS_VERSION,
+    load_results,
+    mlp_inference_flops,
+    mlp_parameter_count,
+)
+from cml_edge.metrics import Pairs, chebyshev, draw_pairs, e_pos, geodesic_distances, summarize
+from cml_edge.storage import atomic_write_text
+
+EVAL_SEED = 123  # the protocol's evaluation seed (cml_edge.evaluation.EVAL_SEED)
+REWARDS = ("simplified", "tailored")
+# Training budgets of the paper (2.3): 100,000 steps with Eq. 6, 200,000 with Eq. 7.
+DEFAULT_STEPS = {"simplified": 100_000, "tailored": 200_000}
+EVAL_EVERY = 5_000
+CONVERGENCE_TOL = 0.5
+NET_ARCH = (64, 64)
+MODELS_DIR = Path("runs") / "dqn"
+
+# The original stable-baselines (v2) DQN defaults, passed to SB3's DQN. SB3's own
+# defaults (lr 1e-4, buffer 1e6, train_freq 4, target update 10,000, final eps 0.05) are
+# Atari settings. tau = 1 is a hard target copy; max_grad_norm 10 is the original's
+# gradient clipping; loss is the Huber loss in both.
+HYPERPARAMS: dict[str, Any] = {
+    "learning_rate": 5e-4,
+    "buffer_size": 50_000,
+    "learning_starts": 1_000,
+    "batch_size": 32,
+    "gamma": 0.99,
+    "train_freq": 1,
+    "gradient_steps": 1,
+    "target_update_interval": 500,
+    "tau": 1.0,
+    "exploration_fraction": 0.1,
+    "exploration_initial_eps": 1.0,
+    "exploration_final_eps": 0.02,
+    "max_grad_norm": 10.0,
+}
+EXTRA_HINT = ("the DQN needs the optional extra: pip install torch==2.13.0 && "
+              "pip install -e '.[dqn]'")
+
+
+@dataclass(frozen=True)
+class DQNRun:
+    """One training configuration (what a results-file entry is keyed by)."""
+
+    reward: str = "simplified"
+    goal_conditioned: bool = False
+    steps: int = DEFAULT_STEPS["simplified"]
+    arena: int = 30
+    trials: int = 100
+    eval_seed: int = EVAL_SEED
+    eval_every: int = EVAL_EVERY
+
+    def __post_init__(self) -> None:
+        if self.reward not in REWARDS:
+            raise ValueError(f"unknown reward {self.reward!r}; allowed: {', '.join(REWARDS)}")
+        for name in ("steps", "trials", "eval_every"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or int(v) != v or v < 1:
+                raise ValueError(f"{name} {v!r} is not a positive integer")
+        if isinstance(self.arena, bool) or int(self.arena) != self.arena or self.arena < 2:
+            raise ValueError(f"arena {self.arena!r} is not an integer >= 2")
+
+    @property
+    def name(self) -> str:
+        return ("goal_conditioned_" if self.goal_conditioned else "") + self.reward
+
+    @property
+    def key(self) -> str:
+        """Results-file key: name, budget and evaluation set-up (short test runs never mix
+        with full runs)."""
+        return (f"{self.name}_{self.steps}_a{self.arena}_t{self.trials}_e{self.eval_seed}"
+                f"_every{self.eval_every}")
+
+    @property
+    def layers(self) -> tuple[int, ...]:
+        return GOAL_CONDITIONED_LAYERS if self.goal_conditioned else PAPER_LAYERS
+
+
+# pairs -------------------------------------------------------------------------------
+def fixed_goal(arena: GridArena, seed: int, eval_seed: int = EVAL_SEED) -> np.ndarray:
+    """The goal of fixed-goal DQN seed ``seed``: the goal of protocol pair ``seed``."""
+    return draw_pairs(arena, seed + 1, eval_seed).goals[seed].copy()
+
+
+def fixed_goal_pairs(arena: GridArena, trials: int, seed: int,
+                     eval_seed: int = EVAL_SEED) -> Pairs:
+    """``trials`` starts drawn uniformly among the free cells other than the goal of
+    ``seed`` (by ``default_rng((eval_seed, seed))``), all to that goal."""
+    goal = fixed_goal(arena, seed, eval_seed)
+    free = np.argwhere(~arena.blocked)
+    free = free[~(free == goal).all(axis=1)]
+    rng = np.random.default_rng((eval_seed, seed))
+    starts = free[rng.integers(len(free), size=trials)].astype(np.int64)
+    goals = np.repeat(goal[None].astype(np.int64), trials, axis=0)
+    return Pairs(starts, goals, chebyshev(starts, goals),
+                 geodesic_distances(arena, starts, goals))
+
+
+def run_pairs(run: DQNRun, arena: GridArena, seed: int) -> tuple[np.ndarray | None, Pairs]:
+    """(fixed goal or None, evaluation pairs) of one seed of ``run``."""
+    if run.goal_conditioned:
+        return None, draw_pairs(arena, run.trials, run.eval_seed)
+    return fixed_goal(arena, seed, run.eval_seed), fixed_goal_pairs(arena, run.trials, seed,
+                                                                     run.eval_seed)
+
+
+def pool(pairs_list: Sequence[Pairs], finals: Sequence[np.ndarray],
+         steps: Sequence[np.ndarray]) -> dict[str, Any]:
+    """The protocol's metrics pooled over seeds x trials."""
+    pooled = Pairs(*(np.concatenate([getattr(p, f) for p in pairs_list])
+                     for f in ("starts", "goals", "chebyshev", "geodesic")))
+    return summarize(np.concatenate(finals), np.concatenate(steps), pooled)
+
+
+# convergence -----------------------------------------------------------------------
+def convergence_index(values: Sequence[float], tol: float = CONVERGENCE_TOL) -> int:
+    """First index from which ``values`` stays within ``tol`` of its last value."""
+    v = np.asarray(values, dtype=float)
+    if len(v) == 0:
+        raise ValueError("empty curve")
+    outside = np.flatnonzero(np.abs(v - v[-1]) > tol)
+    return int(outside[-1] + 1) if len(outside) else 0
+
+
+def curve_convergence(steps: Sequence[int], curves: Sequence[Sequence[float]],
+                      wall: Sequence[Sequence[float]], cpu: Sequence[Sequence[float]],
+                      tol: float = CONVERGENCE_TOL) -> dict[str, Any]:
+    """Convergence of the seed-mean curve; times are seed means at that point."""
+    mean = np.mean(np.asarray(curves, float), axis=0)
+    i = convergence_index(mean, tol)
+    return {"tolerance_cells": tol, "index": i, "step": int(steps[i]),
+            "e_pos_mean_at": float(mean[i]), "e_pos_mean_final": float(mean[-1]),
+            "wall_s": float(np.mean(np.asarray(wall, float)[:, i])),
+            "cpu_s": float(np.mean(np.asarray(cpu, float)[:, i]))}
+
+
+# results file ----------------------------------------------------------------------
+def _provenance(command: str) -> dict[str, Any]:
+    prov = {"date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "command": command, "cml_edge": __version__, "python": platform.python_version(),
+            "numpy": np.__version__, "machine": platform.machine(), "cpu": _cpu_name(),
+            "cpu_count": _cpu_count(), "nice": os.nice(0)}
+    try:
+        from cml_edge.baselines import dqn_sb3
+
+        prov.update(dqn_sb3.versions())
+    except ImportError:
+        pass
+    return prov
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def _cpu_count() -> int | None:
+    return os.cpu_count()
+
+
+def _empty_results() -> dict[str, Any]:
+    return {"format": RESULTS_FORMAT, "format_version": RESULTS_VERSION,
+            "network": network_figures(), "hyperparameters": HYPERPARAMS,
+            "implementation": "stable-baselines3 DQN (vanilla: no Double-Q, no dueling head)",
+            "runs": {}, "evaluations": {}}
+
+
+def read_results(path: str | Path) -> dict[str, Any]:
+    data = load_results(path)
+    if data is None:
+        return _empty_results()
+    if data.get("format_version") != RESULTS_VERSION:
+        raise ValueError(f"{str(path)!r} has DQN results version {data.get('format_version')}, "
+                         f"this cml-edge writes version {RESULTS_VERSION}")
+    return data
+
+
+def write_results(path: str | Path, data: dict[str, Any]) -> None:
+    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
+
+
+def network_figures() -> dict[str, Any]:
+    """Parameter counts and FLOPs by formula (the trained networks' own counts are in each
+    seed record, read off the torch module)."""
+    return {
+        "layers": list(PAPER_LAYERS),
+        "parameters": mlp_parameter_count(PAPER_LAYERS),
+        "parameters_paper_printed": 4874,
+        "parameters_note": "the paper's formula adds 1 x N_i input biases (2) that a dense "
+                           "layer does not have",
+        "inference_flops": mlp_inference_flops(PAPER_LAYERS),
+        "goal_conditioned_layers": list(GOAL_CONDITIONED_LAYERS),
+        "goal_conditioned_parameters": mlp_parameter_count(GOAL_CONDITIONED_LAYERS),
+        "goal_conditioned_inference_flops": mlp_inference_flops(GOAL_CONDITIONED_LAYERS),
+    }
+
+
+def _sb3():
+    try:
+        from cml_edge.baselines import dqn_sb3
+    except ImportError as exc:
+        raise ValueError(f"{EXTRA_HINT} ({exc})") from None
+    return dqn_sb3
+
+
+def _model_path(models: str | Path, run: DQNRun, seed: int) -> Path:
+    return Path(models) / run.key / f"seed_{seed}.zip"
+
+
+# train -----------------------------------------------------------------------------
+def train_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAULT_RESULTS,
+               models: str | Path | None = MODELS_DIR, command: str = "",
+               progress=None) -> dict[str, Any]:
+    """Train every seed of ``seeds`` not yet in ``results``; write after each seed."""
+    sb3 = _sb3()
+    arena = GridArena.empty(run.arena)
+    data = read_results(results)
+    entry = data["runs"].setdefault(run.key, {
+        "name": run.name, "reward": run.reward, "goal_conditioned": run.goal_conditioned,
+        "steps": run.steps, "arena": run.arena, "trials": run.trials,
+        "eval_seed": run.eval_seed, "eval_every": run.eval_every, "seeds": {},
+        "provenance": []})
+    trained, skipped = [], []
+    t0 = time.perf_counter()
+    for n, seed in enumerate(seeds):
+        if str(seed) in entry["seeds"]:
+            skipped.append(int(seed))
+            continue
+        goal, pairs = run_pairs(run, arena, seed)
+        path = None if models is None else _model_path(models, run, seed)
+        record = sb3.train_seed(run, seed, goal, arena, pairs, summarize, path)
+        record["date"] = _provenance("")["date"]
+        data = read_results(results)  # re-read: keep anything written meanwhile
+        entry = data["runs"].setdefault(run.key, entry)
+        entry["seeds"][str(seed)] = record
+        if not trained:
+            entry["provenance"].append(_provenance(command))
+        trained.append(int(seed))
+        write_results(results, data)
+        if progress is not None:
+            progress(n + 1, len(seeds))
+    records = [entry["seeds"][str(s)] for s in seeds]
+    out = {"command": "dqn train", "config": run.name, "key": run.key, "reward": run.reward,
+           "goal_conditioned": run.goal_conditioned, "steps": run.steps,
+           "seeds": len(seeds), "trained": trained, "skipped": skipped,
+           "results_file": str(results),
+           "parameters": records[0]["parameters"] if records else None,
+           "inference_flops": mlp_inference_flops(run.layers),
+           "wall_time_s": time.perf_counter() - t0,
+           "train_wall_s_mean": float(np.mean([r["train_wall_s"] for r in records])),
+           "train_cpu_s_mean": float(np.mean([r["train_cpu_s"] for r in records]))}
+    out.update(_pooled_from_records(run, arena, seeds, records))
+    plot_results(data, Path(results).with_name("dqn_curves.png"))
+    return out
+
+
+def _pooled_from_records(run: DQNRun, arena: GridArena, seeds: Sequence[int],
+                         records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    pairs = [run_pairs(run, arena, s)[1] for s in seeds]
+    return pool(pairs, [np.asarray(r["final"]) for r in records],
+                [np.asarray(r["final_steps"]) for r in records])
+
+
+# evaluate --------------------------------------------------------------------------
+def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
+                 walks: int = 100, steps: int = 900,
+                 curves_from: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Train the CML of each seed (:func:`cml_edge.training.train`: the protocol's
+    100 x 900 random walks, per-walk updates) and plan that seed's pairs
+    (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos on the pairs
+    after every walk (step 0 = untrained); the training time at every point excludes the
+    evaluation. With ``curves_from`` (the result of another path on the same seeds) the
+    curve is taken from it instead of planned again: the factored and direct paths give
+    the same weights to rounding (tests/test_paths.py), so only the timing is new."""
+    from cml_edge.cml import CML, CMLConfig
+    from cml_edge.planning import plan
+    from cml_edge.training import TrainConfig, train
+
+    config = TrainConfig(walks, steps)
+    cml_config = CMLConfig.for_arena(arena.size)
+    warm = CML.create(cml_config, "float", 0)  # compile (or load) the kernels untimed
+    train(warm, arena, TrainConfig(2, 10), 0, path=path, epoch=1)
+    plan(warm, arena, np.array([[0, 0]]), np.array([[1, 1]]), path=path)
+    finals, stps, pairs_list, curves, walls, cpus = [], [], [], [], [], []
+    for n, seed in enumerate(seeds):
+        pairs = pairs_of(seed)
+        cml = CML.create(cml_config, "float", seed)
+        curve: list[float] = []
+        if curves_from is None:
+            r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
+            curve.append(float(e_pos(r.final, pairs.goals).mean()))
+        wall, cpu = [0.0], [0.0]
+        clock = [time.perf_counter(), time.process_time()]
+
+        def on_epoch(done: int, cml=cml, pairs=pairs, curve=curve, wall=wall, cpu=cpu,
+                     clock=clock) -> None:
+            wall.append(wall[-1] + time.perf_counter() - clock[0])
+            cpu.append(cpu[-1] + time.process_time() - clock[1])
+            if curves_from is None:
+                r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
+                curve.append(float(e_pos(r.final, pairs.goals).mean()))
+            clock[0], clock[1] = time.perf_counter(), time.process_time()
+
+        train(cml, arena, config, seed, path=path, epoch=1, on_epoch=on_epoch)
+        res = plan(cml, arena, pairs.starts, pairs.goals, path=path)
+        finals.append(res.final)
+        stps.append(res.steps)
+        pairs_list.append(pairs)
+        curves.append(curve if curves_from is None else curves_from["curves_per_seed"][n])
+        walls.append(wall)
+        cpus.append(cpu)
+    curve_steps = [w * steps for w in range(walks + 1)]
+    return {"path": path, "walks": walks, "steps_per_walk": steps, "explore": "random",
+            "seeds": len(seeds), **pool(pairs_list, finals, stps),
+            "train_wall_s_mean": float(np.mean([w[-1] for w in walls])),
+            "train_cpu_s_mean": float(np.mean([c[-1] for c in cpus])),
+            "curve_steps": curve_steps,
+            "curve_e_pos_mean": np.mean(curves, axis=0).tolist(),
+            "curve_planned_with": path if curves_from is None else curves_from["path"],
+            "curves_per_seed": curves,
+            "convergence": curve_convergence(curve_steps, curves, walls, cpus)}
+
+
+def evaluate_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAULT_RESULTS,
+                  command: str = "", with_cml: bool = True) -> dict[str, Any]:
+    """Evaluate the trained seeds (from their saved models when present, else from the
+    evaluation recorded at the end of training), the CML on the same pairs, and the
+    training-time-to-convergence ratio; store the result under ``evaluations``."""
+    data = read_results(results)
+    entry = data["runs"].get(run.key)
+    if entry is None:
+        raise ValueError(f"no trained DQN {run.key!r} in {str(results)!r}; run "
+                         f"'cml-edge dqn train' with the same options first")
+    missing = [s for s in seeds if str(s) not in entry["seeds"]]
+    if missing:
+        raise ValueError(f"seeds {missing} of {run.key!r} are not trained yet in "
+                         f"{str(results)!r} (trained: {sorted(map(int, entry['seeds']))})")
+    arena = GridArena.empty(run.arena)
+    records = [entry["seeds"][str(s)] for s in seeds]
+    finals, stps, pairs_list, sources = [], [], [], []
+    sb3 = None
+    for seed, rec in zip(seeds, records):
+        _, pairs = run_pairs(run, arena, seed)
+        model_file = rec.get("model_file")
+        if model_file and Path(model_file).is_file():
+            sb3 = sb3 or _sb3()
+            final, steps = sb3.rollout(sb3.load_model(model_file), arena, pairs,
+                                       run.goal_conditioned)
+            sources.append("model")
+        else:
+            final, steps = np.asarray(rec["final"]), np.asarray(rec["final_steps"])
+            sources.append("training record")
+        finals.append(final)
+        stps.append(steps)
+        pairs_list.append(pairs)
+    dqn = {"backend": "dqn", "config": run.name, "reward": run.reward,
+           "goal_conditioned": run.goal_conditioned, "train_steps": run.steps,
+           "seeds": len(seeds), "seed_list": [int(s) for s in seeds],
+           **pool(pairs_list, finals, stps), "trials": run.trials,
+           "evaluated_from": sorted(set(sources)),
+           "parameters": records[0]["parameters"],
+           "inference_flops": mlp_inference_flops(run.layers),
+           "train_wall_s_mean": float(np.mean([r["train_wall_s"] for r in records])),
+           "train_cpu_s_mean": float(np.mean([r["train_cpu_s"] for r in records]))}
+    curve_steps = [p["step"] for p in records[0]["curve"]]
+    dqn["curve_steps"] = curve_steps
+    dqn["curve_e_pos_mean"] = np.mean([[p["e_pos_mean"] for p in r["curve"]]
+                                       for r in records], axis=0).tolist()
+    dqn["convergence"] = curve_convergence(
+        curve_steps, [[p["e_pos_mean"] for p in r["curve"]] for r in records],
+        [[p["train_wall_s"] for p in r["curve"]] for r in records],
+        [[p["train_cpu_s"] for p in r["curve"]] for r in records])
+    out: dict[str, Any] = {**dqn}
+    if with_cml:
+        def pairs_of(seed: int) -> Pairs:
+            return run_pairs(run, arena, seed)[1]
+
+        factored = cml_on_pairs(seeds, pairs_of, arena, "factored")
+        cml = {"factored": factored,
+               "direct": cml_on_pairs(seeds, pairs_of, arena, "direct", curves_from=factored)}
+        out["cml"] = cml
+        out["convergence_ratio"] = {
+            p: {"wall": _ratio(dqn["convergence"]["wall_s"], c["convergence"]["wall_s"]),
+                "cpu": _ratio(dqn["convergence"]["cpu_s"], c["convergence"]["cpu_s"]),
+                "steps": _ratio(dqn["convergence"]["step"], c["convergence"]["step"])}
+            for p, c in cml.items()}
+    out["provenance"] = _provenance(command)
+    data = read_results(results)
+    data["evaluations"][run.key] = out
+    write_results(results, data)
+    plot_results(data, Path(results).with_name("dqn_curves.png"))
+    return out
+
+
+def _ratio(a: float, b: float) -> float | None:
+    return float(a / b) if b > 0 else None
+
+
+# figure ----------------------------------------------------------------------------
+def plot_results(data: dict[str, Any], path: str | Path) -> None:
+    """Figure 4A-like PNG: mean episode return and evaluation e_pos against training
+    steps (mean and standard deviation over seeds), the CML's e_pos when evaluated."""
+    from cml_edge.plots import _figure, save_png
+
+    plt = _figure()
+    fig, (ax_r, ax_e) = plt.subplots(1, 2, figsize=(11, 4))
+    for _key, entry in sorted(data["runs"].items()):
+        recs = list(entry["seeds"].values())
+        if not recs:
+            continue
+        n = min(len(r["curve"]) for r in recs)
+        steps = np.array([p["step"] for p in recs[0]["curve"][:n]])
+        label = f"DQN {entry['name']} ({len(recs)} seeds)"
+        ret = np.array([[np.nan if p["return_mean"] is None else p["return_mean"]
+                         for p in r["curve"][:n]] for r in recs])
+        err = np.array([[p["e_pos_mean"] for p in r["curve"][:n]] for r in recs])
+        for ax, y in ((ax_r, ret), (ax_e, err)):
+            with warnings.catch_warnings():  # no episode ended before a point: NaN
+                warnings.simplefilter("ignore", RuntimeWarning)
+                m, s = np.nanmean(y, axis=0), np.nanstd(y, axis=0)
+            (line,) = ax.plot(steps, m, label=label)
+            ax.fill_between(steps, m - s, m + s, alpha=0.2, color=line.get_color())
+    seen = set()
+    for ev in data.get("evaluations", {}).values():
+        for p, c in ev.get("cml", {}).items():
+            if p != "factored" or ev["goal_conditioned"] in seen:
+                continue
+            seen.add(ev["goal_conditioned"])
+            pairs = "protocol pairs" if ev["goal_conditioned"] else "fixed-goal pairs"
+            ax_e.plot(c["curve_steps"], c["curve_e_pos_mean"], "--",
+                      label=f"CML random walks, {pairs} ({c['seeds']} seeds)")
+    ax_r.set_xlabel("training steps")
+    ax_r.set_ylabel("mean episode return")
+    ax_r.set_title("DQN episode return (Eq. 6 / Eq. 7)")
+    ax_e.set_xlabel("training steps")
+    ax_e.set_ylabel("mean e_pos on the evaluation pairs (cells)")
+    ax_e.set_title("evaluation error (greedy policy / CML plan)")
+    from matplotlib.ticker import FuncFormatter
+
+    for ax in (ax_r, ax_e):
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / 1000:g}k"))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    save_png(fig, path)
+    plt.close(fig)
+
+
+# command line ----------------------------------------------------------------------
+def _int(lo: int, what: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
+        if value < lo:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}")
+        return value
+
+    return parse
+
+
+def add_dqn_parser(subparsers) -> None:
+    """Add ``dqn train|evaluate`` to the ``cml-edge`` subcommands."""
+    p = subparsers.add_parser("dqn", help="DQN baseline (needs the dqn extra): train, or "
+                              "evaluate beside the CML on the same pairs")
+    sub = p.add_subparsers(dest="dqn_command", required=True, parser_class=type(p))
+    for name, help_text in (("train", "train DQN seeds (resumes: skips seeds already done)"),
+                            ("evaluate", "evaluate trained seeds and the CML on the same "
+                             "pairs; training-time-to-convergence ratio")):
+        q = sub.add_parser(name, help=help_text)
+        q.add_argument("--reward", choices=REWARDS, default="simplified",
+                       help="Eq. 6 simplified (default) or Eq. 7 tailored")
+        q.add_argument("--goal-conditioned", action="store_true",
+                       help="inputs (x, y, goal x, goal y), a new goal every episode")
+        q.add_argument("--seeds", type=_int(1, ">= 1"), default=10,
+                       help="seeds 0..N-1 (10)")
+        q.add_argument("--steps", type=_int(1, ">= 1"), default=None,
+                       help="training steps per seed (default 100000 simplified, "
+                            "200000 tailored)")
+        q.add_argument("--arena", type=_int(2, ">= 2 (the arena side)"), default=30)
+        q.add_argument("--trials", type=_int(1, ">= 1"), default=100,
+                       help="evaluation pairs per seed (100)")
+        q.add_argument("--eval-seed", type=_int(0, ">= 0"), default=EVAL_SEED,
+                       help=f"evaluation seed: goals and pairs ({EVAL_SEED})")
+        q.add_argument("--eval-every", type=_int(1, ">= 1"), default=EVAL_EVERY,
+                       help=f"training steps between curve points ({EVAL_EVERY})")
+        q.add_argument("--results", default=str(DEFAULT_RESULTS),
+                       help=f"results file ({DEFAULT_RESULTS})")
+        q.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+        if name == "train":
+            q.add_argument("--models", default=str(MODELS_DIR),
+                           help=f"folder for the trained models ({MODELS_DIR})")
+        else:
+            q.add_argument("--no-cml", action="store_true",
+                           help="skip training and evaluating the CML beside it")
+
+
+def _run_from_args(args: argparse.Namespace) -> DQNRun:
+    steps = args.steps if args.steps is not None else DEFAULT_STEPS[args.reward]
+    return DQNRun(args.reward, args.goal_conditioned, steps, args.arena, args.trials,
+                  args.eval_seed, args.eval_every)
+
+
+def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
+    """``cml-edge dqn train|evaluate``: the JSON-ready result."""
+    run = _run_from_args(args)
+    command = getattr(args, "command_line", None) or "cml-edge " + " ".join(sys.argv[1:])
+    seeds = range(args.seeds)
+    if args.dqn_command == "train":
+        return train_runs(run, seeds, args.results, args.models, command)
+    return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m cml_edge.baselines.dqn train|evaluate ...`` (same as ``cml-edge dqn``)."""
+    parser = argparse.ArgumentParser(prog="cml-edge")
+    add_dqn_parser(parser.add_subparsers(dest="command", required=True))
+    argv = sys.argv[1:] if argv is None else argv
+    args = parser.parse_args(["dqn", *argv])
+    args.command_line = "python -m cml_edge.baselines.dqn " + " ".join(argv)
+    try:
+        result = cmd_dqn(args)
+    except ValueError as exc:
+        print(f"cml-edge: error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for k, v in result.items():
+            if not isinstance(v, (dict, list)):
+                print(f"{k:>24}: {v:.4f}" if isinstance(v, float) else f"{k:>24}: {v}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,92 @@
+"""The protocol across every registered synaptic array (and every crossbar preset).
+
+    cml-edge sweep backends               # or: python -m cml_edge.experiments.backends
+
+For each name in :data:`cml_edge.backends.BACKENDS` (and each preset of an array class
+that has ``PRESETS``): ten CMLs trained on the empty 30 x 30 arena on that array,
+direct compiled path (float64 uses the factored path, which is exact for it), random
+exploration, evaluated on 100 fixed pairs of the empty arena (paper planner, or
+``--planner``) and with 300 obstacles (escape planner). New arrays are picked up as
+they register.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from cml_edge.backends import BACKENDS
+from cml_edge.experiments.common import (
+    DEFAULT_SEEDS,
+    eval_spec,
+    figure,
+    main_for,
+    make_tasks,
+    reject,
+    summary_rows,
+)
+from cml_edge.plots import save_png
+from cml_edge.sweep import Task
+
+NAME = "backends"
+CLAIM = "(not in the paper) the same protocol on every emulated synaptic array"
+COLUMNS = ("config", "eval", "success_rate", "success_rate_connected", "e_pos_mean",
+           "overhead_mean", "overhead_geodesic_mean")
+
+
+def backend_configs() -> list[tuple[str, str, dict[str, Any]]]:
+    """(config id, backend name, options) for each registered backend and preset."""
+    out = []
+    for name, spec in BACKENDS.items():
+        presets = getattr(spec.array_class, "PRESETS", None)
+        if presets is None:
+            try:
+                from importlib import import_module
+
+                mod = import_module(spec.array_class.__module__)
+                presets = getattr(mod, "PRESETS", None)
+            except ImportError:  # pragma: no cover
+                presets = None
+        if presets and "preset" in spec.options:
+            out += [(f"{name}-{p}", name, {"preset": p}) for p in presets]
+        else:
+            out.append((name, name, {}))
+    return out
+
+
+def tasks(seeds: int = DEFAULT_SEEDS, planner: str | None = None, map: str | None = None,
+          scen: str | None = None) -> list[Task]:
+    reject(NAME, map=map, scen=scen)
+    evals = [eval_spec("arena30", planner=planner or "paper"),
+             eval_spec("obst300-escape", obstacles=300, planner="escape")]
+    configs = [(cid, {"backend": name, "backend_options": opts, "evals": evals})
+               for cid, name, opts in backend_configs()]
+    return make_tasks(configs, seeds)
+
+
+def rows(results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    return summary_rows(results, ("backend",))
+
+
+def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) -> None:
+    plt = figure()
+    fig, ax = plt.subplots(figsize=(max(6, 1.1 * len(rows_) / 2 + 3), 4))
+    cids = list(dict.fromkeys(r["config"] for r in rows_))
+    evals = list(dict.fromkeys(r["eval"] for r in rows_))
+    width = 0.8 / len(evals)
+    for j, ev in enumerate(evals):
+        vals = [next((r["success_rate_connected"] for r in rows_
+                      if r["config"] == c and r["eval"] == ev), 0) for c in cids]
+        ax.bar([i + j * width for i in range(len(cids))], vals, width, label=ev)
+    ax.set_xticks([i + 0.4 - width / 2 for i in range(len(cids))], cids, rotation=30,
+                  ha="right", fontsize=8)
+    ax.set_ylabel("success over connected pairs")
+    ax.set_ylim(0, 1.05)
+    ax.legend(fontsize=8)
+    ax.set_title(f"Synaptic arrays, 30 x 30, {rows_[0]['seeds']} seeds x 100 pairs")
+    save_png(fig, path)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main_for(sys.modules[__name__])

@@ -1,0 +1,246 @@
+"""What every experiment shares: one task (train one seed, evaluate it), pooling, output.
+
+A task trains one CML in an empty arena (the paper's protocol: 100 walks x 900 steps,
+per-walk updates, seed = model seed) and evaluates it under a list of evaluation
+conditions (an arena, obstacles, a map and its scenarios, a planner, a step budget),
+all on pairs drawn from the evaluation seed, so every configuration sees the same
+pairs. It returns per-trial finals and steps, so the pooled metrics over seeds
+(:func:`pool`) are the exact ones of :func:`cml_edge.metrics.summarize` over all
+seeds x trials, whatever ran the tasks.
+
+An experiment module defines ``NAME``, ``CLAIM`` (the paper's qualitative claim it
+checks), ``tasks(**options) -> list[Task]``, ``rows(results) -> list[dict]`` (usually
+:func:`summary_rows`) and ``plot(rows, results, path)``; :func:`run_experiment` does the
+rest (sweep, ``results.json``, ``results.csv``, ``figure.png``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge.arena import GridArena
+from cml_edge.cml import CML, CMLConfig
+from cml_edge.evaluation import EVAL_SEED
+from cml_edge.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
+from cml_edge.metrics import Pairs, draw_pairs, e_pos, summarize
+from cml_edge.planning import plan
+from cml_edge.storage import atomic_write_text
+from cml_edge.sweep import Task, run_sweep
+from cml_edge.training import TrainConfig, train
+
+TASK_FN = "cml_edge.experiments.common:train_eval"
+DEFAULT_SEEDS = 10
+OUT_ROOT = Path("runs") / "experiments"
+METRICS = ("success_rate", "success_rate_connected", "e_pos_mean", "e_pos_median",
+           "overhead_mean", "overhead_median", "overhead_geodesic_mean", "connected_pairs",
+           "trials")
+
+
+def eval_spec(name: str, *, size: int | None = None, obstacles: int = 0,
+              map: str | None = None, scen: str | None = None, planner: str = "paper",
+              max_steps: int | None = None, trials: int = 100,
+              eval_seed: int = EVAL_SEED) -> dict[str, Any]:
+    """One evaluation condition (JSON-able). ``max_steps`` None: :func:`step_budget`."""
+    return {"name": name, "size": size, "obstacles": obstacles, "map": map, "scen": scen,
+            "planner": planner, "max_steps": max_steps, "trials": trials,
+            "eval_seed": eval_seed}
+
+
+def _eval_setting(spec: dict[str, Any], train_size: int) -> tuple[GridArena, Pairs, int]:
+    if spec.get("map"):
+        grid = load_map(resolve_map(spec["map"]))
+        arena = grid.arena()
+        if spec.get("scen"):
+            pairs = scenario_pairs(grid, load_scen(spec["scen"]), Path(spec["scen"]).name)
+        else:
+            pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
+    else:
+        size = spec.get("size") or train_size
+        arena = (GridArena.with_obstacles(size, spec["obstacles"], spec["eval_seed"])
+                 if spec["obstacles"] else GridArena.empty(size))
+        pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
+    budget = spec.get("max_steps") or step_budget(arena.size)
+    return arena, pairs, budget
+
+
+def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: int = 100,
+               steps: int = 900, explore: str = "random", backend: str = "float",
+               backend_options: dict[str, Any] | None = None, path: str | None = None,
+               epoch: int = 10, curve: bool = False, curve_trials: int = 100,
+               eval_seed: int = EVAL_SEED) -> dict[str, Any]:
+    """The task of every experiment: train model ``seed``, then run each of ``evals``.
+
+    With ``curve``, the model is evaluated on the empty training arena every ``epoch``
+    walks (the paper's Figure 4B / 5 curves: e_pos mean, success, overhead mean).
+    """
+    backend_options = backend_options or {}
+    path = path or ("factored" if backend == "float" else "direct")
+    cml = CML.create(CMLConfig.for_arena(arena), backend, seed, **backend_options)
+    train_arena = GridArena.empty(arena)
+    points: list[dict[str, Any]] = []
+    if curve:
+        cpairs = draw_pairs(train_arena, curve_trials, eval_seed)
+
+        def on_epoch(done: int) -> None:
+            r = plan(cml, train_arena, cpairs.starts, cpairs.goals, path=path)
+            s = summarize(r.final, r.steps, cpairs)
+            points.append({"walks": done, "train_steps": done * steps,
+                           "e_pos_mean": float(e_pos(r.final, cpairs.goals).mean()),
+                           "success_rate": s["success_rate"],
+                           "overhead_mean": s["overhead_mean"]})
+    else:
+        on_epoch = None  # type: ignore[assignment]
+    errors = train(cml, train_arena, TrainConfig(walks, steps, explore), seed, path=path,
+                   epoch=epoch, on_epoch=on_epoch)
+    out_evals = []
+    for spec in evals:
+        ev_arena, pairs, budget = _eval_setting(spec, arena)
+        res = plan(cml, ev_arena, pairs.starts, pairs.goals, max_steps=budget, path=path,
+                   planner=spec["planner"])
+        out_evals.append({**spec, "max_steps": budget, "eval_arena": ev_arena.size,
+                          **summarize(res.final, res.steps, pairs),
+                          "final": res.final.tolist(), "steps": res.steps.tolist(),
+                          "starts": pairs.starts.tolist(), "goals": pairs.goals.tolist(),
+                          "chebyshev": pairs.chebyshev.tolist(),
+                          "geodesic": pairs.geodesic.tolist()})
+    return {"seed": int(seed), "backend": backend, "path": path,
+            "train_error": errors.tolist(), "curve": points, "evals": out_evals}
+
+
+def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Task]:
+    """The (configuration x seed) grid: one task per pair, key ``CONFIG-sSEED``."""
+    if isinstance(seeds, bool) or int(seeds) != seeds or seeds < 1:
+        raise ValueError(f"seeds {seeds!r} is not an integer >= 1")
+    return [Task(f"{cid}-s{seed}", TASK_FN, {**params, "seed": seed})
+            for cid, params in configs for seed in range(seeds)]
+
+
+def reject(name: str, **given: Any) -> None:
+    """ValueError naming the options experiment ``name`` does not take."""
+    bad = [k for k, v in given.items() if v]
+    if bad:
+        raise ValueError(f"experiment {name!r} does not take --{bad[0]}")
+
+
+def config_id(key: str) -> str:
+    return key.rsplit("-s", 1)[0]
+
+
+def pool(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The metrics of :func:`summarize` over the trials of several seeds' records."""
+    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2) for r in records])
+    steps = np.concatenate([np.asarray(r["steps"], np.int64) for r in records])
+    pairs = Pairs(*(np.concatenate([np.asarray(r[k], np.int64) for r in records])
+                    for k in ("starts", "goals", "chebyshev", "geodesic")))
+    return summarize(final, steps, pairs)
+
+
+def summary_rows(results: dict[str, dict[str, Any]], config_fields: tuple[str, ...]
+                 ) -> list[dict[str, Any]]:
+    """One row per (configuration, evaluation): pooled metrics over the seeds."""
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    params: dict[str, dict[str, Any]] = {}
+    for key, res in results.items():
+        cid = config_id(key)
+        for ev in res["evals"]:
+            groups.setdefault((cid, ev["name"]), []).append(ev)
+        params[cid] = res
+    rows = []
+    for (cid, ename), recs in groups.items():
+        first = recs[0]
+        row = {"config": cid, "eval": ename,
+               **{f: params[cid]["_config"].get(f) for f in config_fields},
+               "eval_arena": first["eval_arena"], "obstacles": first["obstacles"],
+               "map": first["map"], "planner": first["planner"],
+               "max_steps": first["max_steps"], "seeds": len(recs)}
+        pooled = pool(recs)
+        row.update({k: pooled[k] for k in METRICS})
+        rows.append(row)
+    return rows
+
+
+def mean_curve(results: dict[str, dict[str, Any]], cid: str, field: str) -> tuple[list, list]:
+    """(training steps, mean over seeds of ``field``) of configuration ``cid``'s curves."""
+    curves = [r["curve"] for k, r in results.items() if config_id(k) == cid]
+    xs = [p["train_steps"] for p in curves[0]]
+    ys = []
+    for i in range(len(xs)):
+        vals = [c[i][field] for c in curves if c[i][field] is not None]
+        ys.append(float(np.mean(vals)) if vals else float("nan"))
+    return xs, ys
+
+
+# output -----------------------------------------------------------------------------
+def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+    if not rows:
+        return
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=list(rows[0]))
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+    atomic_write_text(path, buf.getvalue())
+
+
+def markdown_table(rows: list[dict[str, Any]], columns: tuple[str, ...]) -> str:
+    def cell(v: Any) -> str:
+        if v is None:
+            return "n/a"
+        return f"{v:.3f}" if isinstance(v, float) else str(v)
+
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines += ["| " + " | ".join(cell(r.get(c)) for c in columns) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def figure():
+    from cml_edge.plots import _figure
+
+    return _figure()
+
+
+def run_experiment(module: Any, out: str | Path | None = None, workers: int | None = None,
+                   scheduler: str | None = None,
+                   progress: Callable[[int, int], None] | None = None,
+                   **options: Any) -> dict[str, Any]:
+    """Sweep ``module``'s tasks into ``out`` and write results.json / .csv / figure.png."""
+    out = Path(out) if out else OUT_ROOT / module.NAME
+    tasks = module.tasks(**options)
+    results = run_sweep(tasks, out, workers=workers, scheduler=scheduler, progress=progress)
+    configs = {config_id(t.key): {k: v for k, v in t.params.items() if k not in ("seed",)}
+               for t in tasks}
+    for key, res in results.items():
+        res["_config"] = configs[config_id(key)]
+    rows = module.rows(results)
+    for res in results.values():
+        res.pop("_config", None)
+    summary = {"experiment": module.NAME, "claim": module.CLAIM, "tasks": len(tasks),
+               "seeds": options.get("seeds", DEFAULT_SEEDS), "options": options,
+               "rows": rows}
+    atomic_write_text(out / "results.json", json.dumps(summary, indent=1))
+    write_csv(out / "results.csv", rows)
+    module.plot(rows, results, out / "figure.png")
+    summary["out"] = str(out)
+    return summary
+
+
+def main_for(module: Any, argv: list[str] | None = None) -> None:
+    """``python -m cml_edge.experiments.NAME``: the sweep with the module's defaults."""
+    parser = argparse.ArgumentParser(description=module.__doc__.splitlines()[0])
+    parser.add_argument("--out", default=None, help=f"folder (default {OUT_ROOT}/NAME)")
+    parser.add_argument("--workers", type=int, default=None, help="local processes")
+    parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    parser.add_argument("--seeds", type=int, default=DEFAULT_SEEDS)
+    args = parser.parse_args(argv)
+    summary = run_experiment(module, args.out, args.workers, args.scheduler, seeds=args.seeds)
+    print(markdown_table(summary["rows"], module.COLUMNS))
+    sys.stdout.flush()
