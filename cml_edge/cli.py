@@ -91,6 +91,10 @@ class Progress:
 
 
 # shared options -------------------------------------------------------------------
+# the option names each array class adds, to refuse one given to another backend
+_BACKEND_OPTIONS: dict[type, list[str]] = {}
+
+
 def _add_backend(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default="float",
                    help=f"synaptic array: {', '.join(sorted(BACKENDS))} (default float)")
@@ -99,12 +103,21 @@ def _add_backend(p: argparse.ArgumentParser) -> None:
         cls = spec.array_class
         if cls not in seen and hasattr(cls, "add_cli_arguments"):
             seen.add(cls)
-            cls.add_cli_arguments(p.add_argument_group(f"{cls.name} array options"))
+            group = p.add_argument_group(f"{cls.name} array options")
+            cls.add_cli_arguments(group)
+            _BACKEND_OPTIONS[cls] = [a.dest for a in group._group_actions]
 
 
 def _backend_options(args: argparse.Namespace) -> dict[str, Any]:
     spec = backend_spec(args.backend)
     cls = spec.array_class
+    for other, dests in _BACKEND_OPTIONS.items():
+        if other is cls:
+            continue
+        for dest in dests:
+            if getattr(args, dest, None) not in (None, False, []):
+                raise InputError(f"--{dest.replace('_', '-')} is an option of the {other.name} "
+                                 f"arrays, not of --backend {args.backend}")
     return cls.cli_options(args) if hasattr(cls, "cli_options") else {}
 
 

@@ -80,6 +80,8 @@ def bad(capsys, *argv):
     (["emulate", "--trials", "0"], "'0'"),
     (["emulate", "--drift-time", "-1"], "negative"),
     (["emulate", "--drift-time", "inf"], "'inf'"),
+    (["emulate", "--backend", "float", "--bits", "5"], "--bits is an option of the fixed"),
+    (["emulate", "--backend", "int8", "--levels", "16"], "--levels is an option of the crossbar"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch, argv, needle):
     monkeypatch.chdir(tmp_path)

@@ -13,6 +13,7 @@ import numpy as np
 
 from cml_edge.backends.base import SynapticArray
 from cml_edge.backends.crossbar_array import CrossbarArray
+from cml_edge.backends.fixed_array import FixedArray
 from cml_edge.backends.float_array import FloatArray
 
 
@@ -28,12 +29,16 @@ class BackendSpec:
 BACKENDS: dict[str, BackendSpec] = {
     "float": BackendSpec(FloatArray, {"dtype": "float64"}, "float64 reference"),
     "float32": BackendSpec(FloatArray, {"dtype": "float32"}, "float32 weights and arithmetic"),
+    "int8": BackendSpec(FixedArray, {"bits": 8}, "Loihi-style int8 weights, integer learning"),
+    "int16": BackendSpec(FixedArray, {"bits": 16}, "int16 weights, integer learning"),
+    "fixed": BackendSpec(FixedArray, {}, "fixed point of --bits N (2..16) bits"),
     "crossbar": BackendSpec(CrossbarArray, {"preset": CrossbarArray.DEFAULT_PRESET},
                             "memristive crossbar: --preset ideal|pcm|reram, --levels, --set"),
 }
 
 ARRAY_CLASSES: dict[str, type[SynapticArray]] = {
     "float": FloatArray,
+    "fixed": FixedArray,
     "crossbar": CrossbarArray,
 }
 
