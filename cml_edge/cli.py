@@ -26,6 +26,7 @@ from cml_edge.exploration import EXPLORATIONS
 from cml_edge.learning import SCHEDULES
 from cml_edge.metrics import Pairs, draw_pairs, geodesic_distances
 from cml_edge.planning import MAX_STEPS, PLANNERS, plan
+from cml_edge.robot import add_robot_parser, cmd_robot
 from cml_edge.storage import ModelFileError, atomic_write, load_model, save_model
 from cml_edge.training import PATHS, TrainConfig, train
 
@@ -278,6 +279,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="backends to time (default: all registered)")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    add_robot_parser(sub)
     add_dqn_parser(sub)
     return parser
 
@@ -466,6 +468,7 @@ COMMANDS = {"train": cmd_train, "evaluate": cmd_evaluate, "navigate": cmd_naviga
             "emulate": cmd_emulate, "report": cmd_report, "bench": cmd_bench,
             "sweep": cmd_sweep}
 COMMANDS["dqn"] = cmd_dqn
+COMMANDS["robot"] = cmd_robot
 
 
 def _print_human(command: str, result: dict[str, Any]) -> None:

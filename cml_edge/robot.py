@@ -1,0 +1,508 @@
+"""The continuous wheeled robot (paper 2.5, 3.5): model files, the protocol, figures, the CLI.
+
+The pieces live in :mod:`cml_edge.robot_sim` (arena, robot, kinematic and MuJoCo
+simulators) and :mod:`cml_edge.robot_cml` (observations, training, planning); this
+module puts them together for ``cml-edge robot train|evaluate|navigate``.
+
+Model files. One ``.npz`` (no pickles) holds the CMLs of one or more training seeds:
+``format`` ("cml-edge-robot-model"), ``format_version``, ``meta`` (JSON: the CML config,
+the backend, the robot config, the observation settings, the simulator and the training
+record) and each array's ``state_dict`` under ``m<i>/W_q/``, ``m<i>/W_k/``, ``m<i>/W_v/``.
+Loading checks all of it. Files are written under a temporary name and renamed.
+
+Protocol (issue 8): every model drives the robot from the base pose (bottom left) to the
+same ``trials`` goals, drawn uniformly on [0.5, 29.5]^2 from the evaluation seed; a trial
+succeeds when the robot ends an action within 0.25 m of its goal, within 100 actions.
+Pooled over models: ``success_rate``, ``mean_actions`` and ``path_ratio`` (path length
+over the straight start-goal distance) over successful trials, e_pos (Eq. 8).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import math
+import sys
+import time
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__
+from cml_edge.backends import array_from_state_dict, backend_spec
+from cml_edge.cml import CML, UTILITIES, CMLConfig
+from cml_edge.learning import SCHEDULES
+from cml_edge.robot_cml import (
+    BASE_POSE,
+    GOAL_HEADINGS,
+    GOAL_RADIUS,
+    MAX_ACTIONS,
+    OBSERVATIONS,
+    PATHS,
+    STOPS,
+    RobotCMLSettings,
+    RobotPlanResult,
+    RobotTrainConfig,
+    draw_goals,
+    plan_robot,
+    summarize_robot,
+    train_robot,
+)
+from cml_edge.robot_sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
+from cml_edge.storage import atomic_write
+
+FORMAT = "cml-edge-robot-model"
+FORMAT_VERSION = 1
+MATRICES = ("W_q", "W_k", "W_v")
+EVAL_SEED = 123
+
+
+class RobotModelError(ValueError):
+    """A robot model file that is missing, corrupted, foreign or of another version."""
+
+
+# model files --------------------------------------------------------------------------
+def save_robot_models(path: str | Path, cmls: list[CML], meta: dict[str, Any]) -> None:
+    """Write the CMLs of several seeds and their shared ``meta`` (JSON-able) atomically."""
+    if not cmls:
+        raise ValueError("no models to save")
+    arrays: dict[str, np.ndarray] = {
+        "format": np.array(FORMAT),
+        "format_version": np.array(FORMAT_VERSION),
+        "meta": np.array(json.dumps({**meta, "config": cmls[0].config.to_dict(),
+                                     "backend": cmls[0].backend, "n_models": len(cmls)},
+                                    sort_keys=True)),
+    }
+    for i, cml in enumerate(cmls):
+        for name, arr in zip(MATRICES, cml.arrays):
+            for k, v in arr.state_dict().items():
+                arrays[f"m{i}/{name}/{k}"] = v
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    atomic_write(path, lambda f: f.write(buf.getvalue()))
+
+
+def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
+    """Load and validate a robot model file; returns its CMLs and its meta record."""
+    path = Path(path)
+    name = str(path)
+    if not path.is_file():
+        raise RobotModelError(f"model file {name!r} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise RobotModelError(f"{name!r} is not a readable .npz model file ({exc})") from None
+    fmt = str(data.get("format", ""))
+    if fmt != FORMAT:
+        hint = " (a grid model: use cml-edge evaluate)" if fmt == "cml-edge-model" else ""
+        raise RobotModelError(f"{name!r} is not a cml-edge robot model{hint}")
+    version = data.get("format_version")
+    if version is None or int(version) != FORMAT_VERSION:
+        raise RobotModelError(f"{name!r} has robot model format version {version}, this "
+                              f"cml-edge reads version {FORMAT_VERSION}")
+    try:
+        meta = json.loads(str(data["meta"]))
+        config = CMLConfig.from_dict(meta["config"])
+        settings = RobotCMLSettings.from_dict(meta["settings"])
+        RobotConfig.from_dict(meta["robot"])
+        if meta["sim"] not in SIMS:
+            raise ValueError(f"unknown simulator {meta['sim']!r}")
+        if config.n_i != settings.n_i:
+            raise ValueError(f"N_i = {config.n_i} does not fit the {settings.observation} "
+                             f"observation")
+        n = int(meta["n_models"])
+        if n < 1:
+            raise ValueError(f"n_models {n} < 1")
+        cmls = []
+        for i in range(n):
+            arrays = []
+            for mat in MATRICES:
+                prefix = f"m{i}/{mat}/"
+                sd = {k[len(prefix):]: v for k, v in data.items() if k.startswith(prefix)}
+                arrays.append(array_from_state_dict(sd))
+            cml = CML(config, tuple(arrays), meta["backend"])
+            for mat, arr in zip(MATRICES, cml.arrays):
+                if not np.all(np.isfinite(arr.to_float())):
+                    raise ValueError(f"model {i}: {mat} holds non-finite weights")
+            cmls.append(cml)
+    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
+        raise RobotModelError(f"{name!r} is a corrupted robot model file: {exc}") from None
+    return cmls, meta
+
+
+# training and the protocol ----------------------------------------------------------------
+def train_models(seeds: list[int], sim: RobotSim, settings: RobotCMLSettings,
+                 config: RobotTrainConfig, cml_config: CMLConfig, backend: str = "float",
+                 path: str = "direct", progress=None) -> tuple[list[CML], dict[str, Any]]:
+    """Train one CML per seed on ``sim``; returns them and the training record."""
+    cmls, errors, gains = [], [], []
+    # compile first (a one-action walk on a throwaway CML), so the timing is the loop's
+    train_robot(CML.create(cml_config, backend, 0), sim, settings, RobotTrainConfig(1, 1), 0, path)
+    t0 = time.perf_counter()
+    total = len(seeds) * config.walks
+    for n, seed in enumerate(seeds):
+        cml = CML.create(cml_config, backend, seed)
+
+        def on_walk(done: int, n: int = n) -> None:
+            if progress is not None:
+                progress(n * config.walks + done, total)
+
+        info = train_robot(cml, sim, settings, config, seed, path=path, on_walk=on_walk)
+        cmls.append(cml)
+        errors.append(info["train_error"].tolist())
+        gains.append(info["eq3_gain"])
+    wall = time.perf_counter() - t0
+    record = {"walks": config.walks, "steps": config.steps, "schedule": config.schedule,
+              "seeds": [int(s) for s in seeds], "path": path, "train_error": errors,
+              "eq3_gain": gains, "wall_time_s": wall,
+              "actions_per_s": len(seeds) * config.walks * config.steps / max(wall, 1e-9)}
+    return cmls, record
+
+
+def evaluate_models(cmls: list[CML], sim: RobotSim, settings: RobotCMLSettings, goals: np.ndarray,
+                    base: tuple[float, float, float] = BASE_POSE,
+                    max_actions: int = MAX_ACTIONS, radius: float = GOAL_RADIUS,
+                    stop: str = "action", path: str = "direct",
+                    progress=None) -> dict[str, Any]:
+    """Drive each model from ``base`` to every goal; pooled and per-model metrics."""
+    starts = np.tile(np.asarray(base, dtype=np.float64), (len(goals), 1))
+    results: list[RobotPlanResult] = []
+    per_seed = []
+    plan_robot(cmls[0], sim, settings, starts[:1], goals[:1], 1, radius, path, stop=stop)  # compile
+    t0 = time.perf_counter()
+    for n, cml in enumerate(cmls):
+        res = plan_robot(cml, sim, settings, starts, goals, max_actions, radius, path, stop=stop)
+        results.append(res)
+        per_seed.append(summarize_robot(res, starts, goals))
+        if progress is not None:
+            progress(n + 1, len(cmls))
+    wall = time.perf_counter() - t0
+    pooled = RobotPlanResult(*(np.concatenate([getattr(r, f) for r in results]) for f in
+                               ("final", "steps", "reached", "length", "poses", "actions")))
+    all_starts = np.concatenate([starts] * len(cmls))
+    summary = summarize_robot(pooled, all_starts, np.concatenate([goals] * len(cmls)))
+    actions = int(pooled.steps.sum())
+    return {**summary, "seeds": len(cmls), "trials": int(len(goals)), "per_seed": per_seed,
+            "actions": actions, "wall_time_s": wall, "actions_per_s": actions / max(wall, 1e-9)}
+
+
+# figures ------------------------------------------------------------------------------
+def plot_robot_runs(out: str | Path, config: RobotConfig, trails: list[np.ndarray],
+                    goals: np.ndarray, reached: np.ndarray, base, radius: float = GOAL_RADIUS,
+                    title: str | None = None) -> None:
+    """A PNG like the paper's Figure 9: the arena, the base (bottom left), the goals (stars,
+    green when reached) with their 0.25 m circles, and the trajectories driven."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cml_edge.plots import save_png
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    S = config.arena
+    ax.add_patch(plt.Rectangle((0, 0), S, S, fill=False, linewidth=2, color="0.2"))
+    ax.set_xlim(-0.5, S + 0.5)
+    ax.set_ylim(-0.5, S + 0.5)
+    ax.set_aspect("equal")
+    ax.grid(color="0.92", linewidth=0.5)
+    colors = plt.get_cmap("tab10")
+    for i, (trail, goal, ok) in enumerate(zip(trails, goals, reached)):
+        c = colors(i % 10)
+        ax.plot(trail[:, 0], trail[:, 1], "-", color=c, linewidth=1.2)
+        ax.add_patch(plt.Circle(goal, radius, fill=False, color=c, linewidth=0.8))
+        ax.plot(*goal, "*", markersize=13, color="tab:green" if ok else "tab:red",
+                markeredgecolor="k", markeredgewidth=0.5)
+    ax.plot(base[0], base[1], "x", color="k", markersize=12, mew=3, label="base")
+    ax.plot([], [], "*", color="tab:green", markeredgecolor="k", label="goal reached")
+    ax.plot([], [], "*", color="tab:red", markeredgecolor="k", label="goal missed")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    n_ok = int(np.sum(reached))
+    ax.set_title(title or f"CML driving the robot: {n_ok}/{len(goals)} goals reached")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    save_png(fig, out)
+    plt.close(fig)
+
+
+# the command line ---------------------------------------------------------------------
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
+    return v
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
+    return v
+
+
+def _finite(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return v
+
+
+def _positive(text: str) -> float:
+    v = _finite(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number > 0")
+    return v
+
+
+def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
+    tail = "default kinematic" if default else "default: the one the model was trained on"
+    p.add_argument("--sim", choices=SIMS, default=default,
+                   help=f"kinematic (exact arcs, compiled) or mujoco (physics; the robot extra); "
+                        f"{tail}")
+    g = p.add_argument_group("mujoco options")
+    for f, helptext in (("timestep", "physics step, s"), ("friction", "wheel-floor friction"),
+                        ("kv", "wheel velocity servo gain"), ("torque", "motor torque limit")):
+        g.add_argument(f"--mujoco-{f}", type=_positive, default=None, metavar="X",
+                       help=f"{helptext} (default {getattr(MujocoOptions(), f)})")
+
+
+def _add_planning(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--observation", choices=OBSERVATIONS, default=None,
+                   help="check the model's observation (it is fixed at training)")
+    p.add_argument("--goal-heading", choices=GOAL_HEADINGS, default=None,
+                   help="heading of o* (default: the model's, bearing unless trained otherwise)")
+    p.add_argument("--utility", choices=UTILITIES, default=None,
+                   help="planning utility (default: the model's)")
+    p.add_argument("--stop", choices=STOPS, default="action",
+                   help="check the goal circle after each action (the default) or at every "
+                        "32 ms simulation step")
+    p.add_argument("--max-actions", type=_positive_int, default=MAX_ACTIONS,
+                   help=f"action budget ({MAX_ACTIONS})")
+    p.add_argument("--radius", type=_positive, default=GOAL_RADIUS,
+                   help=f"goal radius in m ({GOAL_RADIUS})")
+    p.add_argument("--base", type=_finite, nargs=3, metavar=("X", "Y", "THETA"),
+                   default=list(BASE_POSE), help="start pose (default 2 2 pi/4)")
+    p.add_argument("--eval-seed", type=_nonneg_int, default=EVAL_SEED,
+                   help=f"seed of the random goals ({EVAL_SEED})")
+    p.add_argument("--path", choices=PATHS, default="direct",
+                   help="compiled loop (direct) or plain-Python reference")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_robot_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``robot train|evaluate|navigate`` to the ``cml-edge`` sub-commands."""
+    p = subparsers.add_parser("robot", help="the continuous wheeled robot (paper 2.5, 3.5)")
+    sub = p.add_subparsers(dest="robot_command", required=True, parser_class=type(p))
+
+    t = sub.add_parser("train", help="train CMLs by random walks of the robot and save them")
+    _add_sim(t, "kinematic")
+    t.add_argument("--observation", choices=OBSERVATIONS, default="heading",
+                   help="xy: the paper's (x, y); heading: (x, y, cos, sin) read in the "
+                        "heading's frame (default); heading-world: the same in the world frame")
+    t.add_argument("--goal-heading", choices=GOAL_HEADINGS, default="bearing",
+                   help="default heading of o* for planning (bearing)")
+    t.add_argument("--heading-scale", type=_positive, default=None,
+                   help="weight h of the heading components (default 1/30, as positions)")
+    t.add_argument("--utility", choices=UTILITIES, default="raw",
+                   help="planning utility stored with the model (raw)")
+    t.add_argument("--walks", type=_positive_int, default=RobotTrainConfig.walks,
+                   help=f"exploration walks ({RobotTrainConfig.walks})")
+    t.add_argument("--steps", type=_positive_int, default=RobotTrainConfig.steps,
+                   help=f"actions per walk ({RobotTrainConfig.steps})")
+    t.add_argument("--schedule", choices=SCHEDULES, default="walk",
+                   help="updates applied at the end of each walk (walk) or at once (step)")
+    t.add_argument("--backend", default="float", help="synaptic array (float)")
+    t.add_argument("--seed", type=_nonneg_int, default=0, help="first model seed (0)")
+    t.add_argument("--seeds", type=_positive_int, default=1,
+                   help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
+    t.add_argument("--path", choices=PATHS, default="direct",
+                   help="compiled loop (direct) or plain-Python reference")
+    t.add_argument("--out", required=True, help="model file to write (.npz)")
+    t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+    e = sub.add_parser("evaluate", help="drive to random goals from the base; the issue's "
+                       "metrics")
+    e.add_argument("model", nargs="+", help="robot model file(s) (.npz); the models of "
+                   "several files (trained alike) are pooled")
+    _add_sim(e, None)
+    e.add_argument("--trials", type=_positive_int, default=100, help="random goals (100)")
+    e.add_argument("--seeds", type=_positive_int, default=None,
+                   help="use the first N models (default all)")
+    _add_planning(e)
+
+    n = sub.add_parser("navigate", help="drive to a few goals and plot them (Figure 9)")
+    n.add_argument("model", help="robot model file (.npz)")
+    _add_sim(n, None)
+    n.add_argument("--goal", type=_finite, nargs=2, metavar=("X", "Y"), default=None,
+                   help="one goal (default: --goals random goals)")
+    n.add_argument("--goals", type=_positive_int, default=10,
+                   help="random goals from the evaluation seed (10)")
+    n.add_argument("--model-index", type=_nonneg_int, default=0,
+                   help="which model of the file drives (0)")
+    n.add_argument("--plot", default=None, help="write a PNG like the paper's Figure 9")
+    _add_planning(n)
+    return p
+
+
+class _Progress:
+    def __init__(self, label: str) -> None:
+        self.label, self.on, self.t0 = label, sys.stderr.isatty(), time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.on:
+            return
+        filled = int(30 * done / max(total, 1))
+        sys.stderr.write(f"\r{self.label} [{'#' * filled}{'.' * (30 - filled)}] {done}/{total} "
+                         f"{time.perf_counter() - self.t0:5.1f}s")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _mujoco_options(args: argparse.Namespace) -> dict[str, float]:
+    return {f: getattr(args, f"mujoco_{f}") for f in ("timestep", "friction", "kv", "torque")
+            if getattr(args, f"mujoco_{f}", None) is not None}
+
+
+def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
+              stored: dict[str, float] | None = None) -> RobotSim:
+    options = {**(stored or {}), **_mujoco_options(args)} if name == "mujoco" else {}
+    if name != "mujoco" and _mujoco_options(args):
+        raise ValueError("--mujoco-* options need --sim mujoco")
+    return make_sim(name, robot, **options)
+
+
+def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    backend_spec(args.backend)
+    robot = RobotConfig()
+    settings = RobotCMLSettings(args.observation, args.goal_heading,
+                                args.heading_scale or RobotCMLSettings.heading_scale)
+    config = RobotTrainConfig(args.walks, args.steps, args.schedule)
+    sim = _make_sim(args.sim, robot, args)
+    seeds = list(range(args.seed, args.seed + args.seeds))
+    cmls, record = train_models(seeds, sim, settings, config,
+                                settings.cml_config(utility=args.utility), args.backend,
+                                args.path, _Progress("robot train"))
+    record.update({"command": "cml-edge " + " ".join(sys.argv[1:]),
+                   "cml_edge_version": __version__})
+    mujoco = asdict_options(sim) if args.sim == "mujoco" else None
+    save_robot_models(args.out, cmls, {"robot": robot.to_dict(), "settings": settings.to_dict(),
+                                       "sim": args.sim, "mujoco": mujoco, "training": record})
+    return {"model": args.out, "sim": args.sim, "observation": settings.observation,
+            "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
+            "utility": args.utility, "backend": args.backend, "walks": config.walks,
+            "steps": config.steps, "schedule": config.schedule, "seeds": seeds,
+            "path": args.path, "eq3_gain": record["eq3_gain"],
+            "final_train_error": [e[-1] for e in record["train_error"]],
+            "wall_time_s": record["wall_time_s"], "actions_per_s": record["actions_per_s"]}
+
+
+def asdict_options(sim: RobotSim) -> dict[str, float] | None:
+    options = getattr(sim, "options", None)
+    return None if options is None else {f: getattr(options, f) for f in
+                                         ("timestep", "friction", "kv", "torque", "mass",
+                                          "com_x")}
+
+
+def _load_for_planning(args: argparse.Namespace):
+    files = args.model if isinstance(args.model, list) else [args.model]
+    cmls, meta = load_robot_models(files[0])
+    for other in files[1:]:
+        more, m = load_robot_models(other)
+        for key in ("settings", "robot", "sim", "mujoco", "config", "backend"):
+            if m.get(key) != meta.get(key):
+                raise ValueError(f"{other} differs from {files[0]} in its {key}; only models "
+                                 f"trained alike are pooled")
+        cmls += more
+        meta["training"] = {**meta["training"], "seeds": meta["training"].get("seeds", []) +
+                            m["training"].get("seeds", [])}
+    settings = RobotCMLSettings.from_dict(meta["settings"])
+    if args.observation is not None and args.observation != settings.observation:
+        raise ValueError(f"--observation {args.observation}: the model was trained with the "
+                         f"{settings.observation} observation")
+    if args.goal_heading is not None:
+        settings = RobotCMLSettings(**{**settings.to_dict(), "goal_heading": args.goal_heading})
+    if args.utility is not None:
+        for cml in cmls:
+            cml.config = CMLConfig(**{**cml.config.to_dict(), "utility": args.utility})
+    robot = RobotConfig.from_dict(meta["robot"])
+    sim_name = args.sim or meta["sim"]
+    sim = _make_sim(sim_name, robot, args, meta.get("mujoco") if meta["sim"] == "mujoco" else None)
+    base = tuple(float(b) for b in args.base)
+    if not (robot.lo <= base[0] <= robot.hi and robot.lo <= base[1] <= robot.hi):
+        raise ValueError(f"--base {base[0]:g} {base[1]:g} puts the robot outside the arena "
+                         f"(allowed: {robot.lo:g}..{robot.hi:g} m)")
+    return cmls, meta, settings, robot, sim, sim_name, base
+
+
+def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, Any]:
+    return {"model": args.model, "sim": sim_name, "trained_on": meta["sim"],
+            "observation": settings.observation, "goal_heading": settings.goal_heading,
+            "heading_scale": settings.heading_scale, "utility": cmls[0].config.utility,
+            "backend": cmls[0].backend, "stop": args.stop, "radius": args.radius,
+            "max_actions": args.max_actions, "base": list(base), "eval_seed": args.eval_seed,
+            "path": args.path}
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    cmls, meta, settings, robot, sim, sim_name, base = _load_for_planning(args)
+    if args.seeds is not None:
+        if args.seeds > len(cmls):
+            raise ValueError(f"--seeds {args.seeds}: the model file holds {len(cmls)} models")
+        cmls = cmls[: args.seeds]
+    goals = draw_goals(robot, args.trials, args.eval_seed)
+    result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions, args.radius,
+                             args.stop, args.path, _Progress(f"robot evaluate ({sim_name})"))
+    seeds = meta["training"].get("seeds", list(range(len(cmls))))[: len(cmls)]
+    for entry, seed in zip(result["per_seed"], seeds):
+        entry["seed"] = seed
+    return {**_planning_record(args, meta, settings, cmls, sim_name, base), **result,
+            "seed_list": seeds}
+
+
+def _cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
+    cmls, meta, settings, robot, sim, sim_name, base = _load_for_planning(args)
+    if args.model_index >= len(cmls):
+        raise ValueError(f"--model-index {args.model_index}: the model file holds "
+                         f"{len(cmls)} models (allowed: 0..{len(cmls) - 1})")
+    if args.goal is not None:
+        gx, gy = args.goal
+        if not (0.0 <= gx <= robot.arena and 0.0 <= gy <= robot.arena):
+            raise ValueError(f"--goal {gx:g} {gy:g} is off the {robot.arena:g} x {robot.arena:g}"
+                             f" m arena (allowed: 0..{robot.arena:g})")
+        goals = np.array([[gx, gy]])
+    else:
+        goals = draw_goals(robot, args.goals, args.eval_seed)
+    starts = np.tile(np.asarray(base), (len(goals), 1))
+    res = plan_robot(cmls[args.model_index], sim, settings, starts, goals, args.max_actions,
+                     args.radius, args.path, keep_paths=True, stop=args.stop)
+    out = {**_planning_record(args, meta, settings, cmls, sim_name, base),
+           "model_index": args.model_index, **summarize_robot(res, starts, goals),
+           "runs": {"goals": goals.tolist(), "reached": res.reached.tolist(),
+                    "actions": res.steps.tolist(), "final": res.final.tolist(),
+                    "path_length": res.length.tolist()}}
+    if args.plot:
+        plot_robot_runs(args.plot, robot, res.paths, goals, res.reached, base, args.radius,
+                        title=f"CML ({settings.observation} observation, {sim_name}): "
+                              f"{int(res.reached.sum())}/{len(goals)} goals reached")
+        out["plot"] = args.plot
+    return out
+
+
+def cmd_robot(args: argparse.Namespace) -> dict[str, Any]:
+    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises ValueError."""
+    commands = {"train": _cmd_train, "evaluate": _cmd_evaluate, "navigate": _cmd_navigate}
+    return commands[args.robot_command](args)
