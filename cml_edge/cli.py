@@ -9,15 +9,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from cml_edge import __version__
 from cml_edge.arena import GridArena
+from cml_edge.argtypes import Progress, arena_size, finite_float, nonneg_int, positive_int
 from cml_edge.backends import BACKENDS, backend_spec
 from cml_edge.baselines.dqn import add_dqn_parser, cmd_dqn
 from cml_edge.cml import CML, UTILITIES, CMLConfig
@@ -38,57 +39,6 @@ class InputError(ValueError):
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2, as for every bad input
         raise InputError(message)
-
-
-# argument types -------------------------------------------------------------------
-def _int(lo: int, what: str):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
-        if value < lo:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}")
-        return value
-
-    return parse
-
-
-positive_int = _int(1, ">= 1")
-nonneg_int = _int(0, ">= 0")
-arena_size = _int(2, ">= 2 (the arena side)")
-
-
-def finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-    return value
-
-
-# progress -----------------------------------------------------------------------
-class Progress:
-    """A one-line progress bar on stderr, drawn only when stderr is a terminal."""
-
-    def __init__(self, label: str) -> None:
-        self.label = label
-        self.on = sys.stderr.isatty()
-        self.t0 = time.perf_counter()
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.on:
-            return
-        width = 30
-        filled = int(width * done / max(total, 1))
-        elapsed = time.perf_counter() - self.t0
-        sys.stderr.write(f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] "
-                         f"{done}/{total} {elapsed:5.1f}s")
-        if done >= total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
 
 
 # shared options -------------------------------------------------------------------
@@ -272,6 +222,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="report folder (default hw_reports/latest)")
     p.add_argument("--quick", action="store_true",
                    help="few seeds and trials: minutes instead of the full protocol")
+    p.add_argument("--dqn-results", default=None, metavar="FILE",
+                   help="DQN baseline results written by 'cml-edge dqn' (default: the "
+                        "repository's hw_reports/baselines/dqn_results.json)")
     p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
 
     p = sub.add_parser("bench", help="time the training and planning loops")
@@ -417,13 +370,16 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.report import build_report, write_report
+    from cml_edge.report.build import DQN_RESULTS
 
     def progress(message: str) -> None:
         if sys.stderr.isatty():
             print(f"report: {message}", file=sys.stderr, flush=True)
 
+    if args.dqn_results is not None and not Path(args.dqn_results).is_file():
+        raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
     report = build_report(quick=args.quick, command="cml-edge " + " ".join(sys.argv[1:]),
-                          progress=progress)
+                          progress=progress, dqn_results=args.dqn_results or DQN_RESULTS)
     folder = write_report(report, args.out)
     if args.json:
         return report

@@ -11,8 +11,9 @@ All reads happen before any update, so a step sees one set of weights in both
 schedules: ``walk`` (the paper: updates accumulated, applied when the walk ends by
 ``commit``) and ``step`` (applied in place at once, as an on-chip rule may).
 
-The compiled twin of :func:`learn_step` is the body of
-:func:`cml_edge.training.train_direct`; the tests hold the two to bit equality.
+The compiled twin of :func:`learn_step` is :func:`cml_edge.kernels.cml_step.seam_learn`,
+which every compiled training loop (grid and robot) calls; the tests hold the two to bit
+equality.
 """
 
 from __future__ import annotations

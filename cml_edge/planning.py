@@ -55,7 +55,8 @@ from numba import njit
 
 from cml_edge.arena import MOVES, N_ACTIONS, GridArena, available_moves
 from cml_edge.cml import CML, column_norm
-from cml_edge.kernels.dispatch import sa_matvec, sa_rmatvec, sa_sigmoid
+from cml_edge.kernels.cml_step import plan_buffers, seam_scores, seam_utility_norms, wta
+from cml_edge.kernels.dispatch import sa_matvec
 
 PATHS = ("reference", "direct", "factored")
 PLANNERS = ("paper", "escape")
@@ -158,15 +159,6 @@ def plan_reference(cml: CML, free: np.ndarray, starts: np.ndarray, goals: np.nda
 
 
 @njit(cache=True)
-def _wta(score, mask):
-    best = -1
-    for a in range(N_ACTIONS):
-        if mask[a] and (best < 0 or score[a] > score[best]):
-            best = a
-    return best
-
-
-@njit(cache=True)
 def plan_direct(q, k, v, free, origin, scale, starts, goals, max_steps, normalize, final, steps,
                 paths):
     """The compiled twin of :func:`plan_reference`, through the synaptic-array seam."""
@@ -174,26 +166,12 @@ def plan_direct(q, k, v, free, origin, scale, starts, goals, max_steps, normaliz
     n_i = q[0].shape[1]
     n_a = k[0].shape[0]
     norms = np.ones(n_a)
-    action = np.zeros(n_a)
-    col = np.zeros(n_s)
+    seam_utility_norms(v, normalize, norms)  # W_v's columns, read once per batch
     o = np.zeros(n_i)
     dgo = np.zeros(n_i)
-    d = np.zeros(n_s)
-    s = np.zeros(n_s)
-    u = np.zeros(n_a)
-    z = np.zeros(n_a)
-    g = np.zeros(n_a)
+    buf = plan_buffers(n_s, n_a)
     score = np.zeros(n_a)
     mask = np.zeros(N_ACTIONS, dtype=np.uint8)
-    if normalize:
-        for a in range(n_a):  # read W_v's columns once per batch
-            action[:] = 0.0
-            action[a] = 1.0
-            sa_matvec(v, action, col)
-            total = 0.0
-            for i in range(n_s):
-                total += col[i] * col[i]
-            norms[a] = math.sqrt(total) if total > 0 else 1.0
     for trial in range(starts.shape[0]):
         x = starts[trial, 0]
         y = starts[trial, 1]
@@ -207,16 +185,10 @@ def plan_direct(q, k, v, free, origin, scale, starts, goals, max_steps, normaliz
             o[1] = (y - origin) / scale
             dgo[0] = (gx - origin) / scale - o[0]
             dgo[1] = (gy - origin) / scale - o[1]
-            sa_matvec(q, dgo, d)  # s* - s
-            sa_rmatvec(v, d, u)  # u = W_v^T d
-            sa_matvec(q, o, s)
-            sa_matvec(k, s, z)
-            sa_sigmoid(k, z, g)  # affordance
-            for a in range(n_a):
-                score[a] = u[a] / norms[a] * g[a]
+            seam_scores(q, k, v, o, dgo, norms, score, buf)
             if available_moves(free, x, y, mask) == 0:
                 break
-            a = _wta(score, mask)
+            a = wta(score, mask)
             x += MOVES[a, 0]
             y += MOVES[a, 1]
             taken += 1
@@ -263,7 +235,7 @@ def plan_factored(Wq, Wk, Wv, free, origin, scale, starts, goals, max_steps, nor
                 score[a] = (U[a, 0] * dx + U[a, 1] * dy) / (1.0 + math.exp(-zk))
             if available_moves(free, x, y, mask) == 0:
                 break
-            a = _wta(score, mask)
+            a = wta(score, mask)
             x += MOVES[a, 0]
             y += MOVES[a, 1]
             taken += 1
@@ -414,7 +386,7 @@ def _escape_step(free, x, y, u, score, K, norms, mask, seen, h, vis, ist, fst, w
     for a in range(N_ACTIONS):
         fmin = min(fmin, f[a])
     h[x, y] = max(h[x, y], fmin)
-    best = _wta(score, mask)
+    best = wta(score, mask)
     if ist[0] == FOLLOW and e < fst[0] - LEAVE_MARGIN:
         ist[0] = GREEDY
     if ist[0] == FOLLOW and x == ist[4] and y == ist[5] and ist[6] > 0:
@@ -511,11 +483,8 @@ def plan_escape_direct(q, k, v, free, origin, scale, starts, goals, max_steps, n
             norms[a] = math.sqrt(total) if total > 0 else 1.0
     o = np.zeros(n_i)
     dgo = np.zeros(n_i)
-    d = np.zeros(n_s)
-    s = np.zeros(n_s)
-    u = np.zeros(n_a)
-    z = np.zeros(n_a)
-    g = np.zeros(n_a)
+    buf = plan_buffers(n_s, n_a)
+    u = buf[2]  # the raw utility W_v^T (s* - s), written by seam_scores
     score = np.zeros(n_a)
     mask = np.zeros(N_ACTIONS, dtype=np.uint8)
     seen = np.zeros((n, n), np.uint8)
@@ -537,13 +506,7 @@ def plan_escape_direct(q, k, v, free, origin, scale, starts, goals, max_steps, n
             o[1] = (y - origin) / scale
             dgo[0] = (gx - origin) / scale - o[0]
             dgo[1] = (gy - origin) / scale - o[1]
-            sa_matvec(q, dgo, d)  # s* - s
-            sa_rmatvec(v, d, u)  # raw utility W_v^T d
-            sa_matvec(q, o, s)
-            sa_matvec(k, s, z)
-            sa_sigmoid(k, z, g)  # affordance
-            for a in range(n_a):
-                score[a] = u[a] / norms[a] * g[a]
+            seam_scores(q, k, v, o, dgo, norms, score, buf)
             if available_moves(free, x, y, mask) == 0:
                 break
             a = _escape_step(free, x, y, u, score, K, norms, mask, seen, h, vis, ist, fst,

@@ -71,7 +71,15 @@ import numpy as np
 from numba import njit
 
 from cml_edge.cml import CML, CMLConfig
-from cml_edge.kernels.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_rmatvec, sa_sigmoid
+from cml_edge.kernels.cml_step import (
+    learn_buffers,
+    plan_buffers,
+    seam_commit,
+    seam_learn,
+    seam_scores,
+    seam_utility_norms,
+    wta,
+)
 from cml_edge.kernels.rng import stream_key, uniform
 from cml_edge.learning import end_walk, learn_step, schedule_defers
 from cml_edge.robot_sim import (
@@ -250,96 +258,6 @@ def first_within(path, gx, gy, radius):
     return -1
 
 
-# the CML step, compiled through the seam -----------------------------------------------
-@njit(cache=True)
-def cml_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer):
-    """One step of Eqs. 1-3 (the compiled twin of :func:`cml_edge.learning.learn_step`);
-    returns ||e_t||^2."""
-    n_s = q[0].shape[0]
-    n_i = q[0].shape[1]
-    n_a = k[0].shape[0]
-    s = np.zeros(n_s)
-    ds = np.zeros(n_s)
-    va = np.zeros(n_s)
-    e = np.zeros(n_s)
-    neg_e = np.zeros(n_s)
-    z = np.zeros(n_a)
-    g = np.zeros(n_a)
-    post_k = np.zeros(n_a)
-    action = np.zeros(n_a)
-    d_o = np.zeros(n_i)
-    action[a] = 1.0
-    sa_matvec(q, o_t, s)  # s_t = W_q o_t
-    sa_matvec(k, s, z)
-    sa_sigmoid(k, z, g)  # g_t = sigmoid(W_k s_t)
-    for i in range(n_i):
-        d_o[i] = o_1[i] - o_t[i]
-    sa_matvec(q, d_o, ds)  # s_{t+1} - s_t, one read
-    sa_matvec(v, action, va)  # W_v a_t
-    sq = 0.0
-    for i in range(n_s):
-        e[i] = ds[i] - va[i]  # e_t = s_{t+1} - s_hat_{t+1}
-        neg_e[i] = -e[i]
-        sq += e[i] * e[i]
-    for i in range(n_a):
-        post_k[i] = action[i] - g[i]
-    sa_outer_update(k, post_k, s, lr_k, defer)  # Eq. 1
-    sa_outer_update(v, e, action, lr_v, defer)  # Eq. 2
-    sa_outer_update(q, neg_e, o_1, lr_q, defer)  # Eq. 3
-    return sq
-
-
-@njit(cache=True)
-def cml_commit(q, k, v):
-    sa_commit(q)
-    sa_commit(k)
-    sa_commit(v)
-
-
-@njit(cache=True)
-def utility_norms(v, normalize, norms):
-    """W_v's column norms (ones for the raw utility), read once per planning batch."""
-    n_s = v[0].shape[0]
-    n_a = v[0].shape[1]
-    col = np.zeros(n_s)
-    action = np.zeros(n_a)
-    for a in range(n_a):
-        norms[a] = 1.0
-        if normalize:
-            action[:] = 0.0
-            action[a] = 1.0
-            sa_matvec(v, action, col)
-            total = 0.0
-            for i in range(n_s):
-                total += col[i] * col[i]
-            norms[a] = math.sqrt(total) if total > 0 else 1.0
-
-
-@njit(cache=True)
-def cml_choose(q, k, v, o, dgo, norms, mask):
-    """WTA over utility x affordance among the available actions (paper 2.1); -1 if none."""
-    n_s = q[0].shape[0]
-    n_a = k[0].shape[0]
-    d = np.zeros(n_s)
-    s = np.zeros(n_s)
-    u = np.zeros(n_a)
-    z = np.zeros(n_a)
-    g = np.zeros(n_a)
-    sa_matvec(q, dgo, d)  # d = W_q (o* - o) = s* - s, one read
-    sa_rmatvec(v, d, u)  # u = W_v^T d
-    sa_matvec(q, o, s)
-    sa_matvec(k, s, z)
-    sa_sigmoid(k, z, g)  # affordance
-    best = -1
-    top = 0.0
-    for a in range(n_a):
-        score = u[a] / norms[a] * g[a]
-        if mask[a] and (best < 0 or score > top):
-            best = a
-            top = score
-    return best
-
-
 # training -----------------------------------------------------------------------------
 @njit(cache=True)
 def train_kinematic(q, k, v, defer, twists, dt, n_sub, lo, hi, mode, origin, scale, hscale,
@@ -354,6 +272,7 @@ def train_kinematic(q, k, v, defer, twists, dt, n_sub, lo, hi, mode, origin, sca
     work = np.zeros(3)
     o_t = np.zeros(n_i)
     o_1 = np.zeros(n_i)
+    buf = learn_buffers(q[0].shape[0], n_i, k[0].shape[0])
     mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
     nopath = np.zeros((0, 3))
     for w in range(w0, w1):
@@ -369,13 +288,13 @@ def train_kinematic(q, k, v, defer, twists, dt, n_sub, lo, hi, mode, origin, sca
             drive(pose, twists[a, 0], twists[a, 1], dt, n_sub, lo, hi, new, nopath)
             observe(mode, pose, pose, origin, scale, hscale, o_t)
             observe(mode, pose, new, origin, scale, hscale, o_1)
-            total += math.sqrt(cml_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer))
+            total += math.sqrt(seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf))
             for i in range(n_i):
                 osum += o_1[i] * o_1[i]
             pose[:] = new
             done += 1
         if defer:
-            cml_commit(q, k, v)
+            seam_commit(q, k, v)
         errors[w] = total / max(done, 1)
         o_sq[w] = osum / max(done, 1)
 
@@ -385,7 +304,7 @@ def train_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Ro
                  path: str = "reference") -> None:
     """Walks w0..w1-1 driven from Python, for any simulator: ``reference`` learns through
     the Python array calls (:func:`cml_edge.learning.learn_step`), ``direct`` through the
-    compiled :func:`cml_learn`."""
+    compiled :func:`cml_edge.kernels.cml_step.seam_learn`."""
     defer = schedule_defers(config.schedule)
     rc = sim.config
     c = cml.config
@@ -396,6 +315,7 @@ def train_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Ro
                                    settings.heading_scale)
     o_t = np.zeros(c.n_i)
     o_1 = np.zeros(c.n_i)
+    buf = learn_buffers(c.n_s, c.n_i, c.n_a)
     start = np.zeros(3)
     q, k, v = (arr.state for arr in cml.arrays)
     for w in range(w0, w1):
@@ -414,8 +334,8 @@ def train_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Ro
             observe(mode, pose, pose, origin, scale, hscale, o_t)
             observe(mode, pose, new, origin, scale, hscale, o_1)
             if path == "direct":
-                total += math.sqrt(cml_learn(q, k, v, o_t, o_1, a, c.lr_q, c.lr_k, c.lr_v,
-                                             defer))
+                total += math.sqrt(seam_learn(q, k, v, o_t, o_1, a, c.lr_q, c.lr_k, c.lr_v,
+                                              defer, buf))
             else:
                 total += learn_step(cml, o_t, o_1, a, defer)
             for x in o_1:
@@ -424,7 +344,7 @@ def train_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Ro
             done += 1
         if path == "direct":
             if defer:
-                cml_commit(q, k, v)
+                seam_commit(q, k, v)
         else:
             end_walk(cml, defer)
         errors[w] = total / max(done, 1)
@@ -490,7 +410,9 @@ def plan_kinematic(q, k, v, twists, dt, n_sub, lo, hi, mode, goal_heading, origi
     n_i = q[0].shape[1]
     n_a = k[0].shape[0]
     norms = np.ones(n_a)
-    utility_norms(v, normalize, norms)
+    seam_utility_norms(v, normalize, norms)
+    buf = plan_buffers(q[0].shape[0], n_a)
+    score = np.zeros(n_a)
     pose = np.zeros(3)
     new = np.zeros(3)
     work = np.zeros(3)
@@ -517,7 +439,8 @@ def plan_kinematic(q, k, v, twists, dt, n_sub, lo, hi, mode, goal_heading, origi
             observe_goal(mode, goal_heading, pose, gx, gy, origin, scale, hscale, o_star)
             for i in range(n_i):
                 dgo[i] = o_star[i] - o[i]
-            a = cml_choose(q, k, v, o, dgo, norms, mask)
+            seam_scores(q, k, v, o, dgo, norms, score, buf)
+            a = wta(score, mask)
             drive(pose, twists[a, 0], twists[a, 1], dt, n_sub, lo, hi, new, sub)
             end = first_within(sub, gx, gy, radius) if stop_each_step else -1
             if end >= 0:  # the simulation halts inside the goal circle, mid-action
@@ -542,14 +465,17 @@ def plan_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts: np.
                 path: str = "reference", keep_paths: bool = False,
                 stop_each_step: bool = False) -> None:
     """Plan from Python, for any simulator: ``reference`` reads the arrays through the
-    CML's Python methods, ``direct`` through the compiled :func:`cml_choose`."""
+    CML's Python methods, ``direct`` through the compiled
+    :func:`cml_edge.kernels.cml_step.seam_scores`."""
     c = cml.config
     q, k, v = (arr.state for arr in cml.arrays)
     mode, code = settings.mode, settings.goal_code
     origin, scale, hscale = settings.origin, settings.scale, settings.heading_scale
     if path == "direct":
         norms = np.ones(c.n_a)
-        utility_norms(v, c.utility == "normalized", norms)
+        seam_utility_norms(v, c.utility == "normalized", norms)
+        buf = plan_buffers(c.n_s, c.n_a)
+        score = np.zeros(c.n_a)
     else:
         norms = cml.utility_norms()
     o = np.zeros(c.n_i)
@@ -575,7 +501,8 @@ def plan_driven(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts: np.
             observe_goal(mode, code, pose, gx, gy, origin, scale, hscale, o_star)
             dgo = o_star - o
             if path == "direct":
-                a = cml_choose(q, k, v, o, dgo, norms, mask)
+                seam_scores(q, k, v, o, dgo, norms, score, buf)
+                a = wta(score, mask)
             else:
                 u = cml.utility(cml.W_q.matvec(dgo), norms)  # W_v^T (s* - s), normalised
                 score = u * cml.affordance(cml.embed(o))

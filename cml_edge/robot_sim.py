@@ -249,7 +249,24 @@ class RobotSim(Protocol):
         the pose at every simulation step."""
 
 
-class KinematicSim:
+class _ArcMask:
+    """``available`` for both simulators: an action is available when its kinematic arc
+    from the current pose stays inside the walls (the paper's unavailable moves)."""
+
+    config: RobotConfig
+    pose: np.ndarray
+    twists: np.ndarray
+    _work: np.ndarray
+
+    def available(self) -> np.ndarray:
+        c = self.config
+        mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
+        available_actions(self.pose, self.twists, c.dt, c.steps_per_action, c.lo, c.hi, mask,
+                          self._work, NO_PATH)
+        return mask
+
+
+class KinematicSim(_ArcMask):
     """Exact unicycle-arc kinematics (compiled)."""
 
     name = "kinematic"
@@ -262,13 +279,6 @@ class KinematicSim:
 
     def reset(self, pose) -> None:
         self.pose = _check_pose(pose, self.config)
-
-    def available(self) -> np.ndarray:
-        c = self.config
-        mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
-        available_actions(self.pose, self.twists, c.dt, c.steps_per_action, c.lo, c.hi, mask,
-                          self._work, NO_PATH)
-        return mask
 
     def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
         c = self.config
@@ -342,7 +352,7 @@ class MujocoOptions:
                 raise ValueError(f"mujoco {f.name} {v!r} is not a finite number > 0")
 
 
-class MujocoSim:
+class MujocoSim(_ArcMask):
     """The Create on MuJoCo: velocity-controlled wheels, a caster, friction, solid walls."""
 
     name = "mujoco"
@@ -388,13 +398,6 @@ class MujocoSim:
         w, x, y, z = q[3], q[4], q[5], q[6]
         th = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
         return np.array([q[0], q[1], th])
-
-    def available(self) -> np.ndarray:
-        c = self.config
-        mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
-        available_actions(self.pose, self.twists, c.dt, c.steps_per_action, c.lo, c.hi, mask,
-                          self._work, NO_PATH)
-        return mask
 
     def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
         a = _check_action(action)

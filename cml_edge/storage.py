@@ -59,6 +59,53 @@ def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write(path, lambda f: f.write(text.encode()))
 
 
+def cml_arrays(cml: CML, prefix: str = "") -> dict[str, np.ndarray]:
+    """Each array's ``state_dict`` under ``<prefix>W_q/``, ``<prefix>W_k/``, ``<prefix>W_v/``."""
+    return {f"{prefix}{name}/{k}": v for name, arr in zip(MATRICES, cml.arrays)
+            for k, v in arr.state_dict().items()}
+
+
+def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str,
+                    prefix: str = "") -> CML:
+    """The CML stored by :func:`cml_arrays` under ``prefix``; ValueError (or KeyError) when
+    an array is missing or malformed or holds a non-finite weight."""
+    arrays = []
+    for name in MATRICES:
+        head = f"{prefix}{name}/"
+        arrays.append(array_from_state_dict({k[len(head):]: v for k, v in data.items()
+                                             if k.startswith(head)}))
+    cml = CML(config, tuple(arrays), backend)
+    for name, arr in zip(MATRICES, cml.arrays):
+        if not np.all(np.isfinite(arr.to_float())):
+            raise ValueError(f"{prefix}{name} holds non-finite weights")
+    return cml
+
+
+def read_npz(path: str | Path, fmt: str, version: int, error: type[ValueError],
+             foreign: dict[str, str] | None = None) -> dict[str, np.ndarray]:
+    """The arrays of the ``.npz`` file ``path`` after checking that it exists, reads, and
+    carries format ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign``
+    gives for a known other format."""
+    name = str(path)
+    if not Path(path).is_file():
+        raise error(f"model file {name!r} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise error(f"{name!r} is not a readable .npz model file ({exc})") from None
+    found = str(data.get("format", ""))
+    if found != fmt:
+        hint = (foreign or {}).get(found, "")
+        raise error(f"{name!r} is not a {fmt.replace('-model', '')} model (no format "
+                    f"{fmt!r}){hint}")
+    stored = data.get("format_version")
+    if stored is None or int(stored) != version:
+        raise error(f"{name!r} has {fmt} format version {stored}, this cml-edge reads "
+                    f"version {version}")
+    return data
+
+
 def save_model(path: str | Path, cml: CML, training: dict[str, Any]) -> None:
     """Save ``cml`` with the record of how it was trained (``training``, JSON-able)."""
     arrays: dict[str, np.ndarray] = {
@@ -66,41 +113,18 @@ def save_model(path: str | Path, cml: CML, training: dict[str, Any]) -> None:
         "format_version": np.array(FORMAT_VERSION),
         "meta": np.array(json.dumps({"config": cml.config.to_dict(), "backend": cml.backend,
                                      "training": training}, sort_keys=True)),
+        **cml_arrays(cml),
     }
-    for name, arr in zip(MATRICES, cml.arrays):
-        for k, v in arr.state_dict().items():
-            arrays[f"{name}/{k}"] = v
     atomic_write(path, lambda f: np.savez(f, **arrays))
 
 
 def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
     """Load and validate a model file; returns the CML and its training record."""
-    path = Path(path)
-    if not path.is_file():
-        raise ModelFileError(f"model file {str(path)!r} does not exist")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise ModelFileError(f"{str(path)!r} is not a readable .npz model file ({exc})") from None
-    if str(data.get("format", "")) != FORMAT:
-        raise ModelFileError(f"{str(path)!r} is not a cml-edge model (no format {FORMAT!r})")
-    version = data.get("format_version")
-    if version is None or int(version) != FORMAT_VERSION:
-        raise ModelFileError(f"{str(path)!r} has model format version {version}, this cml-edge "
-                             f"reads version {FORMAT_VERSION}")
+    data = read_npz(path, FORMAT, FORMAT_VERSION, ModelFileError,
+                    {"cml-edge-robot-model": " (a robot model: use cml-edge robot evaluate)"})
     try:
         meta = json.loads(str(data["meta"]))
-        config = CMLConfig.from_dict(meta["config"])
-        arrays = []
-        for name in MATRICES:
-            prefix = f"{name}/"
-            sd = {k[len(prefix):]: v for k, v in data.items() if k.startswith(prefix)}
-            arrays.append(array_from_state_dict(sd))
-        cml = CML(config, tuple(arrays), meta["backend"])
-        for name, arr in zip(MATRICES, cml.arrays):
-            if not np.all(np.isfinite(arr.to_float())):
-                raise ValueError(f"{name} holds non-finite weights")
+        cml = cml_from_arrays(data, CMLConfig.from_dict(meta["config"]), meta["backend"])
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
         raise ModelFileError(f"{str(path)!r} is a corrupted model file: {exc}") from None
     return cml, meta.get("training", {})

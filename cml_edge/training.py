@@ -43,7 +43,7 @@ from cml_edge.exploration import (
     nth_free_cell,
     threshold,
 )
-from cml_edge.kernels.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_sigmoid
+from cml_edge.kernels.cml_step import learn_buffers, seam_commit, seam_learn
 from cml_edge.kernels.rng import STREAM_EXPLORE, STREAM_WALK_START, randint, stream_key
 from cml_edge.learning import end_walk, learn_step, schedule_defers
 
@@ -157,22 +157,14 @@ def _visit(visited, n_visited, x, y):
 @njit(cache=True)
 def train_direct(q, k, v, defer, free, masks, visited, n_visited, origin, scale, w0, w1, steps,
                  n_expl, explore, lr_q, lr_k, lr_v, seed, errors):
-    """The compiled twin of :func:`train_reference`, through the synaptic-array seam."""
+    """The compiled twin of :func:`train_reference`, through the synaptic-array seam
+    (:func:`cml_edge.kernels.cml_step.seam_learn`)."""
     n_s = q[0].shape[0]
     n_i = q[0].shape[1]
     n_a = k[0].shape[0]
     o_t = np.zeros(n_i)
     o_1 = np.zeros(n_i)
-    d_o = np.zeros(n_i)
-    s = np.zeros(n_s)
-    ds = np.zeros(n_s)
-    va = np.zeros(n_s)
-    e = np.zeros(n_s)
-    neg_e = np.zeros(n_s)
-    z = np.zeros(n_a)
-    g = np.zeros(n_a)
-    post_k = np.zeros(n_a)
-    action = np.zeros(n_a)
+    buf = learn_buffers(n_s, n_i, n_a)
     novelty = np.zeros(N_ACTIONS)
     best = np.zeros(K_NEAREST)
     start_key = stream_key(seed, STREAM_WALK_START)
@@ -195,34 +187,12 @@ def train_direct(q, k, v, defer, free, masks, visited, n_visited, origin, scale,
             o_t[1] = (y - origin) / scale
             o_1[0] = (nx - origin) / scale
             o_1[1] = (ny - origin) / scale
-            for i in range(n_a):
-                action[i] = 0.0
-            action[a] = 1.0
-            sa_matvec(q, o_t, s)  # s_t = W_q o_t
-            sa_matvec(k, s, z)
-            sa_sigmoid(k, z, g)  # g_t = sigmoid(W_k s_t)
-            for i in range(n_i):
-                d_o[i] = o_1[i] - o_t[i]
-            sa_matvec(q, d_o, ds)  # s_{t+1} - s_t
-            sa_matvec(v, action, va)  # W_v a_t
-            sq = 0.0
-            for i in range(n_s):
-                e[i] = ds[i] - va[i]  # e_t = s_{t+1} - s_hat_{t+1}
-                neg_e[i] = -e[i]
-                sq += e[i] * e[i]
-            for i in range(n_a):
-                post_k[i] = action[i] - g[i]
-            sa_outer_update(k, post_k, s, lr_k, defer)  # Eq. 1
-            sa_outer_update(v, e, action, lr_v, defer)  # Eq. 2
-            sa_outer_update(q, neg_e, o_1, lr_q, defer)  # Eq. 3
-            total += math.sqrt(sq)
+            total += math.sqrt(seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf))
             x = nx
             y = ny
             _visit(visited, n_visited, x, y)
         if defer:
-            sa_commit(q)
-            sa_commit(k)
-            sa_commit(v)
+            seam_commit(q, k, v)
         errors[w] = total / steps
 
 

@@ -36,7 +36,9 @@ def test_energy_is_counted_with_sources_and_never_guessed():
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    rep = build_report(quick=True, systems=[("float32", "float32", {})], sweeps=[])
+    rep = build_report(quick=True, systems=[("float32", "float32", {})],
+                       sweeps=[("read noise", "ideal read_noise 0.2", "crossbar",
+                                {"preset": "ideal", "read_noise": 0.2})])
     out = tmp_path_factory.mktemp("rep") / "r"
     write_report(rep, out)
     return rep, out
@@ -53,9 +55,11 @@ def test_schema(report):
     for s in data["systems"]:
         for key in ("success_rate", "e_pos_mean", "overhead_mean", "parameters",
                     "parameter_bytes", "train_bytes_direct", "update_bytes_per_run_direct",
-                    "energy_per_run_uj", "train_wall_s"):
+                    "update_bytes_per_step_direct", "energy_per_run_uj", "train_wall_s"):
             assert key in s
-    for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png"):
+    assert [w["label"] for w in data["sweeps"]] == ["ideal read_noise 0.2"]
+    for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png",
+                "sweeps.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
 
 
@@ -91,3 +95,11 @@ def test_interrupted_report_leaves_nothing(tmp_path, monkeypatch, report):
     with pytest.raises(KeyboardInterrupt):
         write_report(rep, tmp_path / "r")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_report_refuses_a_missing_dqn_results_file(tmp_path, capsys):
+    from cml_edge.cli import main
+
+    assert main(["report", "--quick", "--out", str(tmp_path / "r"),
+                 "--dqn-results", str(tmp_path / "none.json")]) == 2
+    assert "no such file" in capsys.readouterr().err and not (tmp_path / "r").exists()

@@ -1,18 +1,15 @@
 """The continuous robot (issue 8): kinematics, walls, MuJoCo, the CML loops, files, CLI, Gym."""
 
-import argparse
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
 
+from cml_edge.cli import main
 from cml_edge.cml import CML
 from cml_edge.robot import (
     RobotModelError,
-    add_robot_parser,
-    cmd_robot,
     load_robot_models,
     save_robot_models,
 )
@@ -34,6 +31,7 @@ from cml_edge.robot_sim import (
     make_sim,
     wrap_angle,
 )
+from cml_edge.storage import ModelFileError, load_model, save_model
 
 RC = RobotConfig()
 SMALL = ["--walks", "3", "--steps", "40"]
@@ -268,6 +266,11 @@ def test_model_file_round_trip_and_validation(tmp_path):
         load_robot_models(bad)
     with pytest.raises(RobotModelError, match="does not exist"):
         load_robot_models(tmp_path / "missing.npz")
+    save_model(tmp_path / "grid.npz", cml, {})
+    with pytest.raises(RobotModelError, match="a grid model: use cml-edge evaluate"):
+        load_robot_models(tmp_path / "grid.npz")
+    with pytest.raises(ModelFileError, match="a robot model: use cml-edge robot evaluate"):
+        load_model(path)
     data = dict(np.load(path))
     data["format_version"] = np.array(99)
     np.savez(tmp_path / "v99.npz", **data)
@@ -281,31 +284,8 @@ def test_model_file_round_trip_and_validation(tmp_path):
 
 
 # the command line -------------------------------------------------------------------------
-def _main(argv):
-    """``cml_edge.cli.main`` once the robot command is wired into it; until then the same
-    contract (one JSON object, or one error line and exit status 2) on a local parser."""
-    from cml_edge import cli
-
-    if "robot" in getattr(cli, "COMMANDS", {}):
-        return cli.main(argv)
-
-    class Parser(argparse.ArgumentParser):
-        def error(self, message):
-            raise ValueError(message)
-
-    parser = Parser(prog="cml-edge")
-    add_robot_parser(parser.add_subparsers(dest="command", required=True, parser_class=Parser))
-    try:
-        result = cmd_robot(parser.parse_args(argv))
-    except ValueError as exc:
-        print(f"cml-edge: error: {exc}", file=sys.stderr)
-        return 2
-    print(json.dumps(result))
-    return 0
-
-
 def run(capsys, *argv):
-    code = _main([str(a) for a in argv])
+    code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -391,3 +371,19 @@ def test_gym_environment():
     assert terminated and info["is_success"] and reward > 90
     with pytest.raises(ValueError):
         RobotNavEnv(observation="polar")
+
+
+def test_sb3_checker_and_a_short_dqn_run_on_the_robot():
+    sb3 = pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.env_checker import check_env
+
+    from cml_edge.robot_env import RobotNavEnv
+
+    env = RobotNavEnv(observation="heading")
+    check_env(env)
+    model = sb3.DQN("MlpPolicy", env, learning_starts=50, buffer_size=500, seed=0,
+                    policy_kwargs={"net_arch": [64, 64]}, device="cpu")
+    model.learn(total_timesteps=200)
+    assert model.num_timesteps == 200
+    action, _ = model.predict(env.reset(seed=1)[0], deterministic=True)
+    assert 0 <= int(action) < 8

@@ -42,13 +42,15 @@ from __future__ import annotations
 
 import argparse
 import datetime as _dt
+import fcntl
 import json
 import os
 import platform
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,6 +59,7 @@ import numpy as np
 
 from cml_edge import __version__
 from cml_edge.arena import GridArena
+from cml_edge.argtypes import Progress, arena_size, nonneg_int, positive_int
 from cml_edge.baselines import (
     DEFAULT_RESULTS,
     GOAL_CONDITIONED_LAYERS,
@@ -248,6 +251,18 @@ def write_results(path: str | Path, data: dict[str, Any]) -> None:
     atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
 
 
+@contextmanager
+def updating_results(path: str | Path) -> Iterator[dict[str, Any]]:
+    """Read, modify and write the results file under an exclusive lock (``<file>.lock``),
+    so trainers of different configurations running at once never drop each other's seeds."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(f"{path}.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        data = read_results(path)
+        yield data
+        write_results(path, data)
+
+
 def network_figures() -> dict[str, Any]:
     """Parameter counts and FLOPs by formula (the trained networks' own counts are in each
     seed record, read off the torch module)."""
@@ -299,13 +314,12 @@ def train_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAULT_
         path = None if models is None else _model_path(models, run, seed)
         record = sb3.train_seed(run, seed, goal, arena, pairs, summarize, path)
         record["date"] = _provenance("")["date"]
-        data = read_results(results)  # re-read: keep anything written meanwhile
-        entry = data["runs"].setdefault(run.key, entry)
-        entry["seeds"][str(seed)] = record
-        if not trained:
-            entry["provenance"].append(_provenance(command))
+        with updating_results(results) as data:  # keep anything written meanwhile
+            entry = data["runs"].setdefault(run.key, entry)
+            entry["seeds"][str(seed)] = record
+            if not trained:
+                entry["provenance"].append(_provenance(command))
         trained.append(int(seed))
-        write_results(results, data)
         if progress is not None:
             progress(n + 1, len(seeds))
     records = [entry["seeds"][str(s)] for s in seeds]
@@ -454,9 +468,8 @@ def evaluate_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAU
                 "steps": _ratio(dqn["convergence"]["step"], c["convergence"]["step"])}
             for p, c in cml.items()}
     out["provenance"] = _provenance(command)
-    data = read_results(results)
-    data["evaluations"][run.key] = out
-    write_results(results, data)
+    with updating_results(results) as data:
+        data["evaluations"][run.key] = out
     plot_results(data, Path(results).with_name("dqn_curves.png"))
     return out
 
@@ -515,19 +528,6 @@ def plot_results(data: dict[str, Any], path: str | Path) -> None:
 
 
 # command line ----------------------------------------------------------------------
-def _int(lo: int, what: str):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
-        if value < lo:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}")
-        return value
-
-    return parse
-
-
 def add_dqn_parser(subparsers) -> None:
     """Add ``dqn train|evaluate`` to the ``cml-edge`` subcommands."""
     p = subparsers.add_parser("dqn", help="DQN baseline (needs the dqn extra): train, or "
@@ -541,17 +541,17 @@ def add_dqn_parser(subparsers) -> None:
                        help="Eq. 6 simplified (default) or Eq. 7 tailored")
         q.add_argument("--goal-conditioned", action="store_true",
                        help="inputs (x, y, goal x, goal y), a new goal every episode")
-        q.add_argument("--seeds", type=_int(1, ">= 1"), default=10,
+        q.add_argument("--seeds", type=positive_int, default=10,
                        help="seeds 0..N-1 (10)")
-        q.add_argument("--steps", type=_int(1, ">= 1"), default=None,
+        q.add_argument("--steps", type=positive_int, default=None,
                        help="training steps per seed (default 100000 simplified, "
                             "200000 tailored)")
-        q.add_argument("--arena", type=_int(2, ">= 2 (the arena side)"), default=30)
-        q.add_argument("--trials", type=_int(1, ">= 1"), default=100,
+        q.add_argument("--arena", type=arena_size, default=30)
+        q.add_argument("--trials", type=positive_int, default=100,
                        help="evaluation pairs per seed (100)")
-        q.add_argument("--eval-seed", type=_int(0, ">= 0"), default=EVAL_SEED,
+        q.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
                        help=f"evaluation seed: goals and pairs ({EVAL_SEED})")
-        q.add_argument("--eval-every", type=_int(1, ">= 1"), default=EVAL_EVERY,
+        q.add_argument("--eval-every", type=positive_int, default=EVAL_EVERY,
                        help=f"training steps between curve points ({EVAL_EVERY})")
         q.add_argument("--results", default=str(DEFAULT_RESULTS),
                        help=f"results file ({DEFAULT_RESULTS})")
@@ -576,7 +576,8 @@ def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
     command = getattr(args, "command_line", None) or "cml-edge " + " ".join(sys.argv[1:])
     seeds = range(args.seeds)
     if args.dqn_command == "train":
-        return train_runs(run, seeds, args.results, args.models, command)
+        return train_runs(run, seeds, args.results, args.models, command,
+                          Progress(f"dqn train {run.name}"))
     return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
 
 

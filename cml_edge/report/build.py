@@ -54,6 +54,8 @@ SWEEPS: list[tuple[str, str, str, dict[str, Any]]] = [
       for r in ("stochastic", "nearest") for b in (16, 8, 6, 4)],
     *[("levels", f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n})
       for n in (4, 16, 64, 256)],
+    *[("read noise", f"ideal read_noise {x:g}", "crossbar", {"preset": "ideal", "read_noise": x})
+      for x in (0.05, 0.2, 0.5, 1.0)],
 ]
 
 
@@ -112,6 +114,8 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
         **ops["memory"],
         "train_steps": ops["train_steps"],
         "update_bytes_per_run_direct": tc.get("bytes_read", 0) + tc.get("bytes_written", 0),
+        "update_bytes_per_step_direct": (tc.get("bytes_read", 0) + tc.get("bytes_written", 0))
+        / ops["train_steps"],
         "update_bytes_per_run_factored": ops["factored"]["bytes_per_run"],
         "cells_changed_per_run": tc.get("cells_changed", tc.get("devices_written", 0)),
         "device_pulses_per_run": tc.get("device_pulses"),
@@ -177,6 +181,8 @@ def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, 
             "train_bytes_direct": mem["train_bytes"], "memory": mem,
             "train_steps": steps,
             "update_bytes_per_run_direct": traffic["replay_bytes"] + traffic["weight_bytes"],
+            "update_bytes_per_step_direct": (traffic["replay_bytes"] + traffic["weight_bytes"])
+            / steps,
             "update_bytes_per_run_factored": None,
             "energy_per_run_uj": energy / 1e6,
             "energy_per_action_nj": macs_per_action * budget.COSTS["fp32_mac"].pj / 1e3,
@@ -193,15 +199,16 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                  progress: Callable[[str], None] = lambda m: None,
                  systems: list[tuple[str, str, dict[str, Any]]] | None = None,
                  sweeps: list[tuple[str, str, str, dict[str, Any]]] | None = None,
-                 ) -> dict[str, Any]:
-    """Everything the report shows, as one JSON-ready dict."""
+                 dqn_results: str | Path = DQN_RESULTS) -> dict[str, Any]:
+    """Everything the report shows, as one JSON-ready dict; the DQN's accuracy and times
+    come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist."""
     t0 = time.perf_counter()
     prof = _profile(quick)
     systems = [s for s in (SYSTEMS if systems is None else systems) if s[1] in BACKENDS]
     sweeps = [s for s in (SWEEPS if sweeps is None else sweeps) if s[2] in BACKENDS]
     rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
             for label, backend, opts in systems]
-    dqn, dqn_results = dqn_rows()
+    dqn, dqn_data = dqn_rows(Path(dqn_results))
     sweep_rows = []
     for figure, label, backend, opts in sweeps:
         progress(f"sweep {label}")
@@ -221,15 +228,24 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         "protocol": {"arena": 30, "walks": 100, "steps": 900, "seeds": prof["seeds"],
                      "trials": prof["trials"], "eval_seed": EVAL_SEED, "max_steps": 100},
         "systems": rows + dqn,
-        "dqn_results_file": str(DQN_RESULTS.relative_to(DQN_RESULTS.parents[2]))
-        if dqn_results is not None else None,
-        "dqn_runs": {k: {"seeds_done": sorted((v.get("seeds") or {}).keys()),
+        "dqn_results_file": _display_path(dqn_results) if dqn_data is not None else None,
+        "dqn_runs": {k: {"seeds_done": sorted((v.get("seeds") or {}).keys(), key=int),
                          "steps": v.get("steps")}
-                     for k, v in (dqn_results or {}).get("runs", {}).items()},
+                     for k, v in (dqn_data or {}).get("runs", {}).items()},
         "sweeps": sweep_rows,
         "costs": budget.costs_table(),
         "wall_time_s": time.perf_counter() - t0,
     }
+
+
+def _display_path(path: str | Path) -> str:
+    """``path`` relative to the working folder when inside it (the repository's
+    ``hw_reports/...`` in the reference report), else absolute."""
+    path = Path(path).resolve()
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
 
 
 def _versions() -> dict[str, str]:

@@ -87,11 +87,13 @@ def render_markdown(report: dict[str, Any], figures: dict[str, str]) -> str:
         "## Per action, and the two schedules of the CML's training",
         "",
         _table(["system", "FLOPs (paper formula)", "FLOPs counted", "energy per action (nJ)",
-                "steps to converge", "bytes per run, direct", "bytes per run, factored",
+                "steps to converge", "bytes per step, direct", "bytes per run, direct",
+                "bytes per run, factored",
                 "cells changed per run", "device pulses per run"],
                [[s["label"], s.get("inference_flops_formula"), s.get("inference_flops_counted"),
                  s.get("energy_per_action_nj"), s.get("steps_to_converge"),
-                 s.get("update_bytes_per_run_direct"), s.get("update_bytes_per_run_factored"),
+                 s.get("update_bytes_per_step_direct"), s.get("update_bytes_per_run_direct"),
+                 s.get("update_bytes_per_run_factored"),
                  s.get("cells_changed_per_run"), s.get("device_pulses_per_run")]
                 for s in systems]),
         "",
@@ -102,7 +104,7 @@ def render_markdown(report: dict[str, Any], figures: dict[str, str]) -> str:
         "instead (the float path's exact shortcut).",
     ]
     if report["sweeps"]:
-        parts += ["", "## Precision sweeps", "",
+        parts += ["", "## Precision and noise sweeps", "",
                   _table(["sweep", "configuration", "seeds", "success", "e_pos mean",
                           "overhead mean"],
                          [[s["figure"], s["label"], s["seeds"], s["success_rate"],
@@ -162,15 +164,20 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
 
     if report["sweeps"]:
         groups = sorted({s["figure"] for s in report["sweeps"]})
-        fig, axes = plt.subplots(1, len(groups), figsize=(4.5 * len(groups), 3.5), squeeze=False)
-        for ax, group in zip(axes[0], groups):
+        fig, axes = plt.subplots(2, len(groups), figsize=(4.5 * len(groups), 6), squeeze=False,
+                                 sharex="col")
+        for col, group in enumerate(groups):
             sw = [s for s in report["sweeps"] if s["figure"] == group]
-            ax.bar([s["label"] for s in sw], [s["success_rate"] for s in sw])
-            ax.set_ylim(0, 1.05)
-            ax.set_ylabel("success rate")
-            ax.set_title(f"accuracy against {group}")
-            ax.tick_params(axis="x", rotation=60, labelsize=7)
-        save(fig, "sweeps.png", "precision sweeps")
+            labels = [s["label"] for s in sw]
+            axes[0, col].bar(labels, [s["success_rate"] for s in sw], color="tab:green")
+            axes[0, col].set_ylim(0, 1.05)
+            axes[0, col].set_ylabel("success rate")
+            axes[0, col].set_title(f"accuracy against {group}")
+            axes[1, col].bar(labels, [s["overhead_mean"] or 0 for s in sw], color="tab:blue")
+            axes[1, col].axhline(1.0, color="0.5", lw=0.8)
+            axes[1, col].set_ylabel("mean path overhead (successes)")
+            axes[1, col].tick_params(axis="x", rotation=60, labelsize=7)
+        save(fig, "sweeps.png", "precision and noise sweeps")
 
     fig, ax = plt.subplots(figsize=(8, 3.5))
     keys = [("parameter_bytes", "parameter bytes"), ("train_bytes_direct", "training memory"),
