@@ -86,6 +86,19 @@ def summarize(final: np.ndarray, steps: np.ndarray, pairs: Pairs) -> dict[str, f
     return out
 
 
+CONVERGENCE_TOL = 0.5  # cells: half a grid cell
+
+
+def convergence_index(values, tol: float = CONVERGENCE_TOL) -> int:
+    """First index of an evaluation curve from which it stays within ``tol`` of its last
+    value (the training-to-convergence point of the CML and the DQN alike)."""
+    v = np.asarray(values, dtype=float)
+    if len(v) == 0:
+        raise ValueError("empty curve")
+    outside = np.flatnonzero(np.abs(v - v[-1]) > tol)
+    return int(outside[-1] + 1) if len(outside) else 0
+
+
 def _mean(x: np.ndarray) -> float | None:
     """The mean, or None (JSON null) when there is nothing to average."""
     return float(x.mean()) if len(x) else None

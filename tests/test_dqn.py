@@ -29,7 +29,9 @@ from cml_edge.baselines.dqn import (
     fixed_goal,
     fixed_goal_pairs,
     main,
+    read_results,
     run_pairs,
+    updating_results,
 )
 from cml_edge.metrics import draw_pairs
 
@@ -227,3 +229,23 @@ def test_results_table_needs_no_extra():
                                           "DQN simplified"]
     assert rows[0]["trials"] == 200 and rows[1]["train_steps"] == 90000
     assert markdown_table(rows).count("\n") == 4 and "n/a" in markdown_table(rows)
+
+
+def _add_keys(path, name):
+    for i in range(15):
+        with updating_results(path) as data:
+            data["runs"][f"{name}{i}"] = {"seeds": {}}
+
+
+def test_concurrent_trainers_keep_each_others_results(tmp_path):
+    import multiprocessing as mp
+
+    path = tmp_path / "results.json"
+    ctx = mp.get_context("fork")
+    procs = [ctx.Process(target=_add_keys, args=(path, name)) for name in "ab"]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join()
+    assert all(p.exitcode == 0 for p in procs)
+    assert sorted(read_results(path)["runs"]) == sorted(f"{n}{i}" for n in "ab" for i in range(15))

@@ -28,6 +28,14 @@ def test_memory_by_hand():
     assert dqn["train_bytes"] == 5 * 4872 * 4 + 50_000 * 36 + 32 * (2 + 256 + 8) * 4
 
 
+def test_steps_to_converge_uses_the_dqn_criterion():
+    from cml_edge.report.build import steps_to_converge
+
+    assert steps_to_converge([10.0, 1.0, 0.3, 0.0], 900) == 3 * 900  # stays within 0.5
+    assert steps_to_converge([0.0, 0.6, 0.0], 900) == 3 * 900  # a late excursion counts
+    assert steps_to_converge([], 900) is None
+
+
 def test_energy_is_counted_with_sources_and_never_guessed():
     e, sources = budget.energy_pj("fp32", {"macs": 10, "bytes_read": 8})
     assert e == pytest.approx(10 * 4.6 + 8 * 1.25) and all("Horowitz" in s for s in sources)
@@ -37,8 +45,8 @@ def test_energy_is_counted_with_sources_and_never_guessed():
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     rep = build_report(quick=True, systems=[("float32", "float32", {})],
-                       sweeps=[("read noise", "ideal read_noise 0.2", "crossbar",
-                                {"preset": "ideal", "read_noise": 0.2})])
+                       sweeps=[("read noise", "pcm read_noise 0.2", "crossbar",
+                                {"preset": "pcm", "read_noise": 0.2})])
     out = tmp_path_factory.mktemp("rep") / "r"
     write_report(rep, out)
     return rep, out
@@ -57,7 +65,7 @@ def test_schema(report):
                     "parameter_bytes", "train_bytes_direct", "update_bytes_per_run_direct",
                     "update_bytes_per_step_direct", "energy_per_run_uj", "train_wall_s"):
             assert key in s
-    assert [w["label"] for w in data["sweeps"]] == ["ideal read_noise 0.2"]
+    assert [w["label"] for w in data["sweeps"]] == ["pcm read_noise 0.2"]
     for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png",
                 "sweeps.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"

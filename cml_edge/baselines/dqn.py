@@ -70,7 +70,16 @@ from cml_edge.baselines import (
     mlp_inference_flops,
     mlp_parameter_count,
 )
-from cml_edge.metrics import Pairs, chebyshev, draw_pairs, e_pos, geodesic_distances, summarize
+from cml_edge.metrics import (
+    CONVERGENCE_TOL,
+    Pairs,
+    chebyshev,
+    convergence_index,
+    draw_pairs,
+    e_pos,
+    geodesic_distances,
+    summarize,
+)
 from cml_edge.storage import atomic_write_text
 
 EVAL_SEED = 123  # the protocol's evaluation seed (cml_edge.evaluation.EVAL_SEED)
@@ -78,7 +87,6 @@ REWARDS = ("simplified", "tailored")
 # Training budgets of the paper (2.3): 100,000 steps with Eq. 6, 200,000 with Eq. 7.
 DEFAULT_STEPS = {"simplified": 100_000, "tailored": 200_000}
 EVAL_EVERY = 5_000
-CONVERGENCE_TOL = 0.5
 NET_ARCH = (64, 64)
 MODELS_DIR = Path("runs") / "dqn"
 
@@ -180,15 +188,6 @@ def pool(pairs_list: Sequence[Pairs], finals: Sequence[np.ndarray],
 
 
 # convergence -----------------------------------------------------------------------
-def convergence_index(values: Sequence[float], tol: float = CONVERGENCE_TOL) -> int:
-    """First index from which ``values`` stays within ``tol`` of its last value."""
-    v = np.asarray(values, dtype=float)
-    if len(v) == 0:
-        raise ValueError("empty curve")
-    outside = np.flatnonzero(np.abs(v - v[-1]) > tol)
-    return int(outside[-1] + 1) if len(outside) else 0
-
-
 def curve_convergence(steps: Sequence[int], curves: Sequence[Sequence[float]],
                       wall: Sequence[Sequence[float]], cpu: Sequence[Sequence[float]],
                       tol: float = CONVERGENCE_TOL) -> dict[str, Any]:
@@ -500,8 +499,10 @@ def plot_results(data: dict[str, Any], path: str | Path) -> None:
             with warnings.catch_warnings():  # no episode ended before a point: NaN
                 warnings.simplefilter("ignore", RuntimeWarning)
                 m, s = np.nanmean(y, axis=0), np.nanstd(y, axis=0)
-            (line,) = ax.plot(steps, m, label=label)
-            ax.fill_between(steps, m - s, m + s, alpha=0.2, color=line.get_color())
+            keep = steps > 0 if ax is ax_e else steps >= 0  # log axis: no step 0
+            (line,) = ax.plot(steps[keep], m[keep], label=label)
+            ax.fill_between(steps[keep], (m - s)[keep], (m + s)[keep], alpha=0.2,
+                            color=line.get_color())
     seen = set()
     for ev in data.get("evaluations", {}).values():
         for p, c in ev.get("cml", {}).items():
@@ -517,6 +518,7 @@ def plot_results(data: dict[str, Any], path: str | Path) -> None:
     ax_e.set_xlabel("training steps")
     ax_e.set_ylabel("mean e_pos on the evaluation pairs (cells)")
     ax_e.set_title("evaluation error (greedy policy / CML plan)")
+    ax_e.set_xscale("log")  # the CML converges within ~10^4 steps, the DQN over 10^5
     from matplotlib.ticker import FuncFormatter
 
     for ax in (ax_r, ax_e):

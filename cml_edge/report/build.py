@@ -30,7 +30,7 @@ from cml_edge.backends import BACKENDS
 from cml_edge.baselines import load_results
 from cml_edge.cml import CML, CMLConfig
 from cml_edge.evaluation import EVAL_SEED, run_protocol
-from cml_edge.metrics import draw_pairs
+from cml_edge.metrics import convergence_index, draw_pairs
 from cml_edge.planning import plan
 from cml_edge.training import TrainConfig, train
 
@@ -54,7 +54,7 @@ SWEEPS: list[tuple[str, str, str, dict[str, Any]]] = [
       for r in ("stochastic", "nearest") for b in (16, 8, 6, 4)],
     *[("levels", f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n})
       for n in (4, 16, 64, 256)],
-    *[("read noise", f"ideal read_noise {x:g}", "crossbar", {"preset": "ideal", "read_noise": x})
+    *[("read noise", f"pcm read_noise {x:g}", "crossbar", {"preset": "pcm", "read_noise": x})
       for x in (0.05, 0.2, 0.5, 1.0)],
 ]
 
@@ -95,7 +95,7 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
             progress: Callable[[str], None]) -> dict[str, Any]:
     """Accuracy on the protocol and the ledger of one CML system."""
     progress(f"{label}: protocol")
-    acc = run_protocol(backend, range(seeds), trials, path="direct", **options)
+    acc = run_protocol(backend, range(seeds), trials, path="direct", epoch=1, **options)
     progress(f"{label}: operations")
     ops = measure_operations(backend, options)
     e_train, e_sources = budget.energy_pj(ops["technology"], ops["train_counters"])
@@ -139,15 +139,13 @@ def counted_flops(macs: int, steps: int) -> float:
     return budget.FLOPS_PER_MAC * macs / max(steps, 1)
 
 
-def steps_to_converge(curve: list[float], epoch_steps: int, tol: float = 0.1) -> int | None:
-    """Training steps until the evaluation e_pos first comes within ``tol`` of its final value."""
+def steps_to_converge(curve: list[float], epoch_steps: int) -> int | None:
+    """Training steps until the evaluation e_pos (one point every ``epoch_steps``) stays
+    within half a cell of its final value: :func:`cml_edge.metrics.convergence_index`,
+    the criterion ``cml-edge dqn evaluate`` applies to the DQN."""
     if not curve:
         return None
-    final = curve[-1]
-    for i, e in enumerate(curve):
-        if abs(e - final) <= tol:
-            return (i + 1) * epoch_steps
-    return None
+    return (convergence_index(curve) + 1) * epoch_steps
 
 
 DQN_VARIANTS = (("DQN-simplified", "simplified", False), ("DQN-tailored", "tailored", False),

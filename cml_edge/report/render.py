@@ -134,7 +134,7 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     for s in cml:
         curve = s["curve_e_pos_mean"]
-        axes[0].plot(np.arange(1, len(curve) + 1) * s["epoch_steps"], curve, "-o", ms=3,
+        axes[0].plot(np.arange(1, len(curve) + 1) * s["epoch_steps"], curve, "-", lw=1.2,
                      label=s["label"])
     axes[0].set_title("CML (paper Figure 4B)")
     for s in report["systems"]:
