@@ -8,6 +8,12 @@ Each figure is the median over ``repeats`` timed runs after a compiling warm-up 
 - ``plan_step_us``: one planning step of the direct loop, over the protocol's 100 pairs;
 - for the float64 array also ``train_step_us_factored``, ``plan_step_us_factored`` and
   ``train_total_s_factored`` (the whole 100 x 900 training).
+
+``--robot SIM ...`` adds the wheeled robot (issue 8): simulated ``train_actions_per_s``
+(random walks with the local rule, heading-aware CML, float64) and ``plan_actions_per_s``
+(driving to goals from the base), each timed after a compiling warm-up: 10 walks x 900
+actions and 100 goals on the kinematic simulator, 1 walk x 300 actions and 5 goals on
+MuJoCo (about 200 actions/s, physics-bound).
 """
 
 from __future__ import annotations
@@ -78,3 +84,30 @@ def run_bench(names: Sequence[str], repeats: int = 5,
         if progress is not None:
             progress(i + 1, len(names))
     return {"backends": result, "repeats": repeats, "walks": WALKS, "steps": STEPS}
+
+
+ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, steps, goals
+
+
+def bench_robot(sims: Sequence[str], repeats: int = 5) -> dict[str, dict[str, float]]:
+    """Simulated actions per second of the robot on each simulator (module docstring)."""
+    from cml_edge.robot import evaluate_models, train_models
+    from cml_edge.robot_cml import RobotCMLSettings, RobotTrainConfig, draw_goals
+    from cml_edge.robot_sim import RobotConfig, make_sim
+
+    settings = RobotCMLSettings("heading")
+    out = {}
+    for name in sims:
+        sim = make_sim(name, RobotConfig())
+        walks, steps, n_goals = ROBOT_BUDGETS[name]
+        goals = draw_goals(sim.config, n_goals, EVAL_SEED)
+        train_rates, plan_rates = [], []
+        for r in range(repeats):
+            cmls, record = train_models([r], sim, settings, RobotTrainConfig(walks, steps),
+                                        settings.cml_config(utility="raw"))
+            train_rates.append(record["actions_per_s"])
+            plan_rates.append(evaluate_models(cmls, sim, settings, goals)["actions_per_s"])
+        out[name] = {"train_actions_per_s": statistics.median(train_rates),
+                     "plan_actions_per_s": statistics.median(plan_rates),
+                     "train_actions": walks * steps, "goals": n_goals}
+    return out

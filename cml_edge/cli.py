@@ -28,6 +28,7 @@ from cml_edge.learning import SCHEDULES
 from cml_edge.metrics import Pairs, draw_pairs, geodesic_distances
 from cml_edge.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.robot import add_robot_parser, cmd_robot
+from cml_edge.robot_sim import SIMS
 from cml_edge.storage import ModelFileError, atomic_write, load_model, save_model
 from cml_edge.training import PATHS, TrainConfig, train
 
@@ -231,6 +232,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backends", nargs="+", default=None,
                    help="backends to time (default: all registered)")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
+    p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
+                   help="also time the wheeled robot on these simulators (kinematic, mujoco)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     add_robot_parser(sub)
     add_dqn_parser(sub)
@@ -393,7 +396,12 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
     names = args.backends or sorted(BACKENDS)
     for name in names:
         backend_spec(name)
-    return run_bench(names, repeats=args.repeats, progress=Progress("bench"))
+    result = run_bench(names, repeats=args.repeats, progress=Progress("bench"))
+    if args.robot:
+        from cml_edge.bench import bench_robot
+
+        result["robot"] = bench_robot(args.robot, args.repeats)
+    return result
 
 
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:

@@ -387,3 +387,15 @@ def test_sb3_checker_and_a_short_dqn_run_on_the_robot():
     assert model.num_timesteps == 200
     action, _ = model.predict(env.reset(seed=1)[0], deterministic=True)
     assert 0 <= int(action) < 8
+
+
+def test_bench_robot_reports_actions_per_second(capsys):
+    code, out, err = run(capsys, "bench", "--backends", "float32", "--repeats", 1,
+                         "--robot", "kinematic", "--json")
+    assert code == 0, err
+    robot = json.loads(out)["robot"]
+    assert list(robot) == ["kinematic"] and robot["kinematic"]["train_actions"] == 9000
+    assert robot["kinematic"]["train_actions_per_s"] > 0
+    assert robot["kinematic"]["plan_actions_per_s"] > 0
+    code, _, err = run(capsys, "bench", "--robot", "webots")
+    assert code == 2 and "webots" in err
