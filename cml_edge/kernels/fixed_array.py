@@ -191,6 +191,43 @@ def fixed_rmatvec(state, y, out):
     c[MAC_SATURATIONS] += sats
 
 
+@njit(cache=True, inline="always")
+def _scaled(prod, pk, nk, big, mode, key, ctr, half, two_k):
+    """round(prod 2^-k) in ``mode`` (k = pk > 0, or -nk <= 0 exact); returns (d, ctr)."""
+    if pk == 0:  # exact; beyond any format if big
+        return ((BIG_SHIFT if prod > 0 else -BIG_SHIFT) if big else prod << nk), ctr
+    if pk > 62:
+        d, drew = shift_round(prod, pk, mode, key, ctr)
+        return d, ctr + drew
+    d = prod >> pk  # floor
+    r = prod - (d << pk)
+    if r != 0:
+        if mode == NEAREST:
+            if r > half or (r == half and (d & 1) != 0):
+                d += 1
+        elif mode == STOCHASTIC:
+            if uniform(key, ctr) * two_k < float(r):
+                d += 1
+            ctr += 1
+    return d, ctr
+
+
+@njit(cache=True, inline="always")
+def _saturating_add(target, i, j, d, limit):
+    """target[i, j] += d clipped to +-limit; returns (changed, saturated) as 0/1."""
+    old = np.int64(target[i, j])
+    new = old + d
+    sat = 0
+    if new > limit:
+        new = limit
+        sat = 1
+    elif new < -limit:
+        new = -limit
+        sat = 1
+    target[i, j] = new
+    return int(new != old), sat
+
+
 @njit(cache=True)
 def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     """target += round(rf cq^T 2^-k) on the cells whose factors are both nonzero.
@@ -198,7 +235,8 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     ``top`` bounds |rf[i] cq[j]|. Saturates at +-limit; tally[:4] gets writes, changes,
     saturations, draws. Returns the number of cells touched (integer products formed).
     Narrow matrices (cols <= NARROW) are walked column by column (a one-hot pre touches
-    one column only), wide ones row by row.
+    one column only), wide ones row by row; the order fixes which random draw each
+    cell gets.
     """
     key = rng[0]
     ctr = np.int64(rng[1])
@@ -222,36 +260,12 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                 if fb == 0:
                     continue
                 touched += 1
-                prod = fa * fb
-                if pk == 0:  # exact; beyond any format if big
-                    d = (BIG_SHIFT if prod > 0 else -BIG_SHIFT) if big else prod << nk
-                elif pk > 62:
-                    d, drew = shift_round(prod, pk, mode, key, ctr)
-                    ctr += drew
-                else:
-                    d = prod >> pk  # floor
-                    r = prod - (d << pk)
-                    if r != 0:
-                        if mode == NEAREST:
-                            if r > half or (r == half and (d & 1) != 0):
-                                d += 1
-                        elif mode == STOCHASTIC:
-                            if uniform(key, ctr) * two_k < float(r):
-                                d += 1
-                            ctr += 1
-                if d == 0:
-                    continue
-                old = np.int64(target[b, a])
-                new = old + d
-                if new > limit:
-                    new = limit
-                    sats += 1
-                elif new < -limit:
-                    new = -limit
-                    sats += 1
-                target[b, a] = new
-                written += 1
-                changed += new != old
+                d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
+                if d != 0:
+                    ch, sat = _saturating_add(target, b, a, d, limit)
+                    written += 1
+                    changed += ch
+                    sats += sat
     else:
         for a in range(rows):
             fa = rf[a]
@@ -262,36 +276,12 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                 if fb == 0:
                     continue
                 touched += 1
-                prod = fa * fb
-                if pk == 0:  # exact; beyond any format if big
-                    d = (BIG_SHIFT if prod > 0 else -BIG_SHIFT) if big else prod << nk
-                elif pk > 62:
-                    d, drew = shift_round(prod, pk, mode, key, ctr)
-                    ctr += drew
-                else:
-                    d = prod >> pk  # floor
-                    r = prod - (d << pk)
-                    if r != 0:
-                        if mode == NEAREST:
-                            if r > half or (r == half and (d & 1) != 0):
-                                d += 1
-                        elif mode == STOCHASTIC:
-                            if uniform(key, ctr) * two_k < float(r):
-                                d += 1
-                            ctr += 1
-                if d == 0:
-                    continue
-                old = np.int64(target[a, b])
-                new = old + d
-                if new > limit:
-                    new = limit
-                    sats += 1
-                elif new < -limit:
-                    new = -limit
-                    sats += 1
-                target[a, b] = new
-                written += 1
-                changed += new != old
+                d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
+                if d != 0:
+                    ch, sat = _saturating_add(target, a, b, d, limit)
+                    written += 1
+                    changed += ch
+                    sats += sat
     rng[1] = np.uint64(ctr)
     tally[0] = written
     tally[1] = changed
