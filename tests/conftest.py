@@ -22,3 +22,16 @@ def small_config() -> CMLConfig:
 @pytest.fixture
 def short_training() -> TrainConfig:
     return TrainConfig(walks=4, steps=60)
+
+
+@pytest.fixture
+def cli(capsys):
+    """``cml-edge`` run in-process: ``cli(*argv)`` -> (exit status, stdout, stderr)."""
+    from cml_edge.cli import main
+
+    def run(*argv):
+        code = main([str(a) for a in argv])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    return run

@@ -6,30 +6,24 @@ import zipfile
 import numpy as np
 import pytest
 
-from cml_edge.cli import main
 from cml_edge.storage import FORMAT_VERSION, load_model, save_model
 
 SMALL = ["--arena", "10", "--walks", "4", "--steps", "60"]
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
 
 @pytest.fixture
-def model(tmp_path, capsys):
+def model(tmp_path, cli):
     path = tmp_path / "m.npz"
-    code, out, err = run(capsys, "train", *SMALL, "--seed", 1, "--out", path, "--json")
+    code, out, err = cli("train", *SMALL, "--seed", 1, "--out", path, "--json")
     assert code == 0, err
     result = json.loads(out)
     assert result["model"] == str(path) and result["path"] == "factored"
     return path
 
 
-def test_train_evaluate_navigate(model, tmp_path, capsys):
-    code, out, _ = run(capsys, "evaluate", model, "--trials", 20, "--json")
+def test_train_evaluate_navigate(model, tmp_path, cli):
+    code, out, _ = cli("evaluate", model, "--trials", 20, "--json")
     assert code == 0
     result = json.loads(out)
     for key in ("backend", "seeds", "trials", "success_rate", "e_pos_mean", "e_pos_median",
@@ -37,7 +31,7 @@ def test_train_evaluate_navigate(model, tmp_path, capsys):
         assert key in result
     assert result["trials"] == 20 and result["arena"] == 10
     png = tmp_path / "nav.png"
-    code, out, _ = run(capsys, "navigate", model, "--start", 1, 1, "--goal", 8, 6, "--plot", png,
+    code, out, _ = cli("navigate", model, "--start", 1, 1, "--goal", 8, 6, "--plot", png,
                        "--json")
     assert code == 0
     nav = json.loads(out)
@@ -51,8 +45,8 @@ def test_saved_model_round_trip(model):
     assert cml.config.obs_scale == 10.0 and cml.backend == "float"
 
 
-def test_emulate_json_has_the_contract_keys(capsys):
-    code, out, _ = run(capsys, "emulate", *SMALL, "--seeds", 2, "--trials", 10, "--json")
+def test_emulate_json_has_the_contract_keys(cli):
+    code, out, _ = cli("emulate", *SMALL, "--seeds", 2, "--trials", 10, "--json")
     assert code == 0
     result = json.loads(out)
     for key in ("backend", "seeds", "trials", "success_rate", "e_pos_mean", "e_pos_median",
@@ -61,8 +55,8 @@ def test_emulate_json_has_the_contract_keys(capsys):
     assert result["seeds"] == 2 and result["counters"]["matvecs"] > 0
 
 
-def bad(capsys, *argv):
-    code, out, err = run(capsys, *argv)
+def bad(cli, *argv):
+    code, out, err = cli(*argv)
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("cml-edge: error:"), err
@@ -83,9 +77,9 @@ def bad(capsys, *argv):
     (["emulate", "--backend", "float", "--bits", "5"], "--bits is an option of the fixed"),
     (["emulate", "--backend", "int8", "--levels", "16"], "--levels is an option of the crossbar"),
 ])
-def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch, argv, needle):
+def test_bad_input_exits_2_with_one_line(cli, tmp_path, monkeypatch, argv, needle):
     monkeypatch.chdir(tmp_path)
-    assert needle in bad(capsys, *argv)
+    assert needle in bad(cli, *argv)
     assert not (tmp_path / "x.npz").exists()
 
 
@@ -93,27 +87,27 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch, argv, ne
     ((1, 1), (10, 3), "--goal 10 3 is off"),
     ((-1, 0), (3, 3), "--start -1 0 is off"),
 ])
-def test_navigate_off_arena(model, capsys, start, goal, needle):
-    assert needle in bad(capsys, "navigate", model, "--start", *start, "--goal", *goal)
+def test_navigate_off_arena(model, cli, start, goal, needle):
+    assert needle in bad(cli, "navigate", model, "--start", *start, "--goal", *goal)
 
 
-def test_navigate_onto_obstacle(model, capsys):
+def test_navigate_onto_obstacle(model, cli):
     from cml_edge.arena import GridArena
 
     arena = GridArena.with_obstacles(10, 30, seed=123)
     x, y = np.argwhere(arena.blocked)[0]
-    line = bad(capsys, "navigate", model, "--obstacles", 30, "--start", x, y, "--goal", 0, 0)
+    line = bad(cli, "navigate", model, "--obstacles", 30, "--start", x, y, "--goal", 0, 0)
     assert "on an obstacle" in line
 
 
-def test_missing_corrupted_foreign_and_future_models(tmp_path, capsys, model):
-    assert "does not exist" in bad(capsys, "evaluate", tmp_path / "none.npz")
+def test_missing_corrupted_foreign_and_future_models(tmp_path, cli, model):
+    assert "does not exist" in bad(cli, "evaluate", tmp_path / "none.npz")
     junk = tmp_path / "junk.npz"
     junk.write_bytes(b"not a zip at all")
-    assert "not a readable" in bad(capsys, "evaluate", junk)
+    assert "not a readable" in bad(cli, "evaluate", junk)
     foreign = tmp_path / "foreign.npz"
     np.savez(foreign, weights=np.ones(3))
-    assert "not a cml-edge model" in bad(capsys, "evaluate", foreign)
+    assert "not a cml-edge model" in bad(cli, "evaluate", foreign)
     with zipfile.ZipFile(model) as z:
         members = {n: z.read(n) for n in z.namelist()}
     cut = tmp_path / "cut.npz"
@@ -121,18 +115,18 @@ def test_missing_corrupted_foreign_and_future_models(tmp_path, capsys, model):
         for name, data in members.items():
             if not name.startswith("W_v/W"):
                 z.writestr(name, data)
-    assert "corrupted" in bad(capsys, "evaluate", cut)
+    assert "corrupted" in bad(cli, "evaluate", cut)
     cml, record = load_model(model)
     future = tmp_path / "future.npz"
     with np.load(model) as z:
         data = {k: z[k] for k in z.files}
     data["format_version"] = np.array(FORMAT_VERSION + 1)
     np.savez(future, **data)
-    assert "format version" in bad(capsys, "evaluate", future)
+    assert "format version" in bad(cli, "evaluate", future)
     cml.W_q.state.W[0, 0] = np.nan
     nan_model = tmp_path / "nan.npz"
     save_model(nan_model, cml, record)
-    assert "non-finite" in bad(capsys, "evaluate", nan_model)
+    assert "non-finite" in bad(cli, "evaluate", nan_model)
 
 
 def test_interrupted_write_leaves_nothing(tmp_path):

@@ -36,15 +36,10 @@ def test_unknown_experiment_and_rejected_options():
         experiments.get("convergence").tasks(seeds=1, map="rooms")
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
-
-def test_sweep_command_writes_results_and_resumes(tmp_path, capsys):
+def test_sweep_command_writes_results_and_resumes(tmp_path, cli):
     out = tmp_path / "obst"
-    code, stdout, err = run(capsys, "sweep", "maps", "--seeds", 1, "--workers", 1,
+    code, stdout, err = cli("sweep", "maps", "--seeds", 1, "--workers", 1,
                             "--map", shipped_path("utrap"), "--scen",
                             shipped_path("utrap", ".map.scen"), "--out", out, "--json")
     assert code == 0, err
@@ -58,7 +53,7 @@ def test_sweep_command_writes_results_and_resumes(tmp_path, capsys):
     assert (out / "figure.png").read_bytes()[:4] == b"\x89PNG"
     task = next((out / "tasks").iterdir())
     before = task.stat().st_mtime_ns
-    code, stdout2, _ = run(capsys, "sweep", "maps", "--seeds", 1, "--workers", 1, "--map",
+    code, stdout2, _ = cli("sweep", "maps", "--seeds", 1, "--workers", 1, "--map",
                            shipped_path("utrap"), "--scen", shipped_path("utrap", ".map.scen"),
                            "--out", out, "--json")
     assert code == 0 and task.stat().st_mtime_ns == before
@@ -72,24 +67,24 @@ def model(tmp_path_factory):
     return path
 
 
-def test_evaluate_and_navigate_on_a_map(model, capsys):
+def test_evaluate_and_navigate_on_a_map(model, cli):
     scen = shipped_path("rooms", ".map.scen")
     res = {}
     for planner in ("paper", "escape"):
-        code, out, err = run(capsys, "evaluate", model, "--map", shipped_path("rooms"), "--scen",
+        code, out, err = cli("evaluate", model, "--map", shipped_path("rooms"), "--scen",
                              scen, "--planner", planner, "--json")
         assert code == 0, err
         res[planner] = json.loads(out)
     assert res["escape"]["max_steps"] == 107 and res["escape"]["trials"] == 100
     assert res["escape"]["success_rate_connected"] > res["paper"]["success_rate_connected"]
-    code, out, _ = run(capsys, "navigate", model, "--map", "utrap", "--start", 15, 15,
+    code, out, _ = cli("navigate", model, "--map", "utrap", "--start", 15, 15,
                        "--goal", 27, 15, "--planner", "escape", "--json")
     nav = json.loads(out)
     assert code == 0 and nav["reached"] and nav["planner"] == "escape"
 
 
-def test_emulate_with_planner_and_map(capsys):
-    code, out, err = run(capsys, "emulate", "--walks", 20, "--seeds", 1, "--trials", 10,
+def test_emulate_with_planner_and_map(cli):
+    code, out, err = cli("emulate", "--walks", 20, "--seeds", 1, "--trials", 10,
                          "--map", "utrap", "--planner", "escape", "--path", "factored", "--json")
     assert code == 0, err
     result = json.loads(out)
@@ -97,8 +92,8 @@ def test_emulate_with_planner_and_map(capsys):
     assert result["map"] == "utrap" and result["connected_pairs"] == 10
 
 
-def bad(capsys, *argv):
-    code, out, err = run(capsys, *argv)
+def bad(cli, *argv):
+    code, out, err = cli(*argv)
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("cml-edge: error:"), err
@@ -119,22 +114,22 @@ def bad(capsys, *argv):
     (["emulate", "--map", "nowhere"], "no shipped map 'nowhere'"),
     (["emulate", "--scen", "x.scen"], "--scen needs --map"),
 ])
-def test_bad_input_exits_2_with_one_line(capsys, tmp_path, monkeypatch, argv, needle):
+def test_bad_input_exits_2_with_one_line(cli, tmp_path, monkeypatch, argv, needle):
     monkeypatch.chdir(tmp_path)
-    assert needle in bad(capsys, *argv)
+    assert needle in bad(cli, *argv)
     assert not (tmp_path / "runs").exists()
 
 
-def test_malformed_map_files_exit_2(model, capsys, tmp_path):
+def test_malformed_map_files_exit_2(model, cli, tmp_path):
     ragged = tmp_path / "ragged.map"
     ragged.write_text("type octile\nheight 2\nwidth 3\nmap\n...\n..\n")
-    assert "ragged row" in bad(capsys, "evaluate", model, "--map", ragged)
+    assert "ragged row" in bad(cli, "evaluate", model, "--map", ragged)
     odd = tmp_path / "odd.map"
     odd.write_text("type octile\nheight 2\nwidth 3\nmap\n...\n.x.\n")
-    assert "unknown character 'x'" in bad(capsys, "evaluate", model, "--map", odd)
+    assert "unknown character 'x'" in bad(cli, "evaluate", model, "--map", odd)
     scen = tmp_path / "s.scen"
     scen.write_text("version 1\n0\trooms.map\t32\t32\t10\t0\t0\t0\t1.0\n")
-    assert "blocked cell" in bad(capsys, "evaluate", model, "--map", "rooms", "--scen", scen)
-    assert "--arena 40 cannot be combined" in bad(capsys, "evaluate", model, "--map", "rooms",
+    assert "blocked cell" in bad(cli, "evaluate", model, "--map", "rooms", "--scen", scen)
+    assert "--arena 40 cannot be combined" in bad(cli, "evaluate", model, "--map", "rooms",
                                                   "--arena", 40)
-    assert "astar" in bad(capsys, "evaluate", model, "--planner", "astar")
+    assert "astar" in bad(cli, "evaluate", model, "--planner", "astar")

@@ -6,7 +6,6 @@ import math
 import numpy as np
 import pytest
 
-from cml_edge.cli import main
 from cml_edge.cml import CML
 from cml_edge.robot import (
     RobotModelError,
@@ -284,24 +283,19 @@ def test_model_file_round_trip_and_validation(tmp_path):
 
 
 # the command line -------------------------------------------------------------------------
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
 
 @pytest.fixture
-def model(tmp_path, capsys):
+def model(tmp_path, cli):
     path = tmp_path / "robot.npz"
-    code, out, err = run(capsys, "robot", "train", *SMALL, "--seeds", 2, "--out", path, "--json")
+    code, out, err = cli("robot", "train", *SMALL, "--seeds", 2, "--out", path, "--json")
     assert code == 0, err
     result = json.loads(out)
     assert result["seeds"] == [0, 1] and all(g < 1 for g in result["eq3_gain"])
     return path
 
 
-def test_cli_train_evaluate_navigate(model, tmp_path, capsys):
-    code, out, err = run(capsys, "robot", "evaluate", model, "--trials", 5, "--json")
+def test_cli_train_evaluate_navigate(model, tmp_path, cli):
+    code, out, err = cli("robot", "evaluate", model, "--trials", 5, "--json")
     assert code == 0, err
     result = json.loads(out)
     for key in ("success_rate", "mean_actions", "path_ratio", "e_pos_mean", "per_seed",
@@ -309,11 +303,11 @@ def test_cli_train_evaluate_navigate(model, tmp_path, capsys):
         assert key in result
     assert result["seeds"] == 2 and result["trials"] == 5 and len(result["per_seed"]) == 2
     png = tmp_path / "fig9.png"
-    code, out, err = run(capsys, "robot", "navigate", model, "--goals", 3, "--plot", png,
+    code, out, err = cli("robot", "navigate", model, "--goals", 3, "--plot", png,
                          "--json")
     assert code == 0, err
     assert png.read_bytes()[:4] == b"\x89PNG" and len(json.loads(out)["runs"]["goals"]) == 3
-    code, out, _ = run(capsys, "robot", "navigate", model, "--goal", 3, 3, "--stop", "step",
+    code, out, _ = cli("robot", "navigate", model, "--goal", 3, 3, "--stop", "step",
                        "--json")
     assert code == 0 and json.loads(out)["trials"] == 1
 
@@ -326,15 +320,15 @@ def test_cli_train_evaluate_navigate(model, tmp_path, capsys):
     (["train", "--mujoco-kv", "2", "--out", "X"], "--sim mujoco"),
     (["evaluate", "MISSING"], "does not exist"),
 ])
-def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, capsys, argv, message):
+def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, cli, argv, message):
     argv = [str(tmp_path / a) if a in ("X", "MISSING") else a for a in argv]
-    code, out, err = run(capsys, "robot", *argv)
+    code, out, err = cli("robot", *argv)
     assert code == 2 and out == ""
     assert len(err.strip().splitlines()) == 1 and message in err
     assert not any(tmp_path.iterdir())
 
 
-def test_cli_bad_planning_input_exits_2(model, tmp_path, capsys):
+def test_cli_bad_planning_input_exits_2(model, tmp_path, cli):
     for argv, message in (
         (["evaluate", model, "--seeds", 5], "holds 2 models"),
         (["evaluate", model, "--observation", "xy"], "trained with the heading"),
@@ -342,14 +336,14 @@ def test_cli_bad_planning_input_exits_2(model, tmp_path, capsys):
         (["navigate", model, "--goal", 31, 2], "off the"),
         (["navigate", model, "--model-index", 2], "holds 2 models"),
     ):
-        code, out, err = run(capsys, "robot", *argv)
+        code, out, err = cli("robot", *argv)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1
     grid = tmp_path / "grid.npz"
     from cml_edge.cml import CMLConfig
     from cml_edge.storage import save_model
 
     save_model(grid, CML.create(CMLConfig.for_arena(10)), {})
-    code, _, err = run(capsys, "robot", "evaluate", grid)
+    code, _, err = cli("robot", "evaluate", grid)
     assert code == 2 and "grid model" in err
 
 
@@ -389,13 +383,13 @@ def test_sb3_checker_and_a_short_dqn_run_on_the_robot():
     assert 0 <= int(action) < 8
 
 
-def test_bench_robot_reports_actions_per_second(capsys):
-    code, out, err = run(capsys, "bench", "--backends", "float32", "--repeats", 1,
+def test_bench_robot_reports_actions_per_second(cli):
+    code, out, err = cli("bench", "--backends", "float32", "--repeats", 1,
                          "--robot", "kinematic", "--json")
     assert code == 0, err
     robot = json.loads(out)["robot"]
     assert list(robot) == ["kinematic"] and robot["kinematic"]["train_actions"] == 9000
     assert robot["kinematic"]["train_actions_per_s"] > 0
     assert robot["kinematic"]["plan_actions_per_s"] > 0
-    code, _, err = run(capsys, "bench", "--robot", "webots")
+    code, _, err = cli("bench", "--robot", "webots")
     assert code == 2 and "webots" in err
