@@ -32,6 +32,13 @@ def schedule_defers(name: str) -> bool:
     return name == "walk"
 
 
+def check_walks(walks: int, steps: int) -> None:
+    """A training budget: ``walks`` walks of ``steps`` steps, both positive integers."""
+    for name, v in (("walks", walks), ("steps", steps)):
+        if isinstance(v, bool) or int(v) != v or v < 1:
+            raise ValueError(f"{name} {v!r} is not a positive integer")
+
+
 def learn_step(cml: CML, o_t: np.ndarray, o_next: np.ndarray, a: int, defer: bool) -> float:
     """One step of Eqs. 1-3 through the arrays; returns the training error ||e_t||."""
     c = cml.config

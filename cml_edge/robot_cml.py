@@ -81,7 +81,7 @@ from cml_edge.kernels.cml_step import (
     wta,
 )
 from cml_edge.kernels.rng import stream_key, uniform
-from cml_edge.learning import end_walk, learn_step, schedule_defers
+from cml_edge.learning import check_walks, end_walk, learn_step, schedule_defers
 from cml_edge.robot_sim import (
     N_ROBOT_ACTIONS,
     KinematicSim,
@@ -177,10 +177,7 @@ class RobotTrainConfig:
     schedule: str = "walk"
 
     def __post_init__(self) -> None:
-        for name in ("walks", "steps"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or int(v) != v or v < 1:
-                raise ValueError(f"{name} {v!r} is not a positive integer")
+        check_walks(self.walks, self.steps)
         schedule_defers(self.schedule)
 
 

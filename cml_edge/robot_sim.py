@@ -14,7 +14,7 @@ simulators sit behind one interface (:class:`RobotSim`):
   caster, wheel-floor friction, and four solid walls; physics step 4 ms (8 per 32 ms
   simulation step). The wheels collide as spheres of the wheel radius, one contact
   point each, so the track is the axle length (cylinder wheels touch the floor along
-  their width and scrub in turns: 5 % less turn than commanded). It adds inertia, motor
+  their width and scrub in turns, turning less than commanded). It adds inertia, motor
   lag and, if the friction is lowered or the torque raised, slip. Starting from rest,
   an action ends 1-3 cm from the kinematic prediction and turns 1-6 % less; repeated
   in motion, the turn is within 1 %.

@@ -45,7 +45,7 @@ from cml_edge.exploration import (
 )
 from cml_edge.kernels.cml_step import learn_buffers, seam_commit, seam_learn
 from cml_edge.kernels.rng import STREAM_EXPLORE, STREAM_WALK_START, randint, stream_key
-from cml_edge.learning import end_walk, learn_step, schedule_defers
+from cml_edge.learning import check_walks, end_walk, learn_step, schedule_defers
 
 PATHS = ("reference", "direct", "factored")
 
@@ -60,10 +60,7 @@ class TrainConfig:
     schedule: str = "walk"
 
     def __post_init__(self) -> None:
-        for name in ("walks", "steps"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or int(v) != v or v < 1:
-                raise ValueError(f"{name} {v!r} is not a positive integer")
+        check_walks(self.walks, self.steps)
         explore_code(self.explore)
         schedule_defers(self.schedule)
 
