@@ -22,12 +22,12 @@ import statistics
 import time
 from collections.abc import Callable, Sequence
 
-from cml_edge.arena import GridArena
-from cml_edge.cml import CML
-from cml_edge.evaluation import EVAL_SEED
-from cml_edge.metrics import draw_pairs
-from cml_edge.planning import plan
-from cml_edge.training import TrainConfig, train
+from cml_edge.core.cml import CML
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
+from cml_edge.protocol import EVAL_SEED
 
 WALKS, STEPS = 100, 900
 
@@ -91,9 +91,9 @@ ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, s
 
 def bench_robot(sims: Sequence[str], repeats: int = 5) -> dict[str, dict[str, float]]:
     """Simulated actions per second of the robot on each simulator (module docstring)."""
-    from cml_edge.robot import evaluate_models, train_models
-    from cml_edge.robot_cml import RobotCMLSettings, RobotTrainConfig, draw_goals
-    from cml_edge.robot_sim import RobotConfig, make_sim
+    from cml_edge.robot.cml import RobotCMLSettings, RobotTrainConfig, draw_goals
+    from cml_edge.robot.models import evaluate_models, train_models
+    from cml_edge.robot.sim import RobotConfig, make_sim
 
     settings = RobotCMLSettings("heading")
     out = {}

@@ -10,7 +10,7 @@ operation with no sourced constant is reported as not costed, never guessed.
 Two schedules of the CML's per-walk training are ledgered:
 
 - ``direct``: every synapse touched every step: the emulator's counters;
-- ``factored``: the 60 per-walk accumulators of :mod:`cml_edge.training` (A, B, n, C,
+- ``factored``: the 60 per-walk accumulators of :mod:`cml_edge.grid.training` (A, B, n, C,
   D), updated each step, and one read and one write of each matrix per walk.
 """
 
@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from cml_edge.baselines import mlp_inference_flops, mlp_parameter_count
-from cml_edge.cml import CML
+from cml_edge.core.cml import CML
 
 FLOPS_PER_MAC = 2
 HOROWITZ = "Horowitz, ISSCC 2014, 45 nm"

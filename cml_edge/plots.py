@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cml_edge.arena import GridArena
+from cml_edge.grid.arena import GridArena
 from cml_edge.storage import atomic_write
 
 

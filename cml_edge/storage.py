@@ -21,14 +21,15 @@ from typing import IO, Any
 import numpy as np
 
 from cml_edge.backends import array_from_state_dict
-from cml_edge.cml import CML, CMLConfig
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.errors import InputError
 
 FORMAT = "cml-edge-model"
 FORMAT_VERSION = 1
 MATRICES = ("W_q", "W_k", "W_v")
 
 
-class ModelFileError(ValueError):
+class ModelFileError(InputError):
     """A model file that is missing, corrupted, foreign or of another version."""
 
 
@@ -77,7 +78,7 @@ def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str
     cml = CML(config, tuple(arrays), backend)
     for name, arr in zip(MATRICES, cml.arrays):
         if not np.all(np.isfinite(arr.to_float())):
-            raise ValueError(f"{prefix}{name} holds non-finite weights")
+            raise InputError(f"{prefix}{name} holds non-finite weights")
     return cml
 
 

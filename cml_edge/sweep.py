@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cml_edge.errors import InputError
 from cml_edge.storage import atomic_write_text
 
 TASK_FORMAT = "cml-edge-sweep-task"
@@ -49,9 +50,9 @@ class Task:
 
     def __post_init__(self) -> None:
         if not self.key or any(c in self.key for c in "/\\\0") or self.key.startswith("."):
-            raise ValueError(f"task key {self.key!r} is not a file-safe name")
+            raise InputError(f"task key {self.key!r} is not a file-safe name")
         if ":" not in self.fn:
-            raise ValueError(f"task function {self.fn!r} is not 'module:function'")
+            raise InputError(f"task function {self.fn!r} is not 'module:function'")
 
 
 def run_task(task: Task) -> tuple[str, dict[str, Any]]:
@@ -89,9 +90,9 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     tasks = list(tasks)
     keys = [t.key for t in tasks]
     if len(set(keys)) != len(keys):
-        raise ValueError("task keys are not unique")
+        raise InputError("task keys are not unique")
     if workers is not None and workers < 1:
-        raise ValueError(f"workers {workers!r} is not an integer >= 1")
+        raise InputError(f"workers {workers!r} is not an integer >= 1")
     results: dict[str, dict[str, Any]] = {}
     todo = []
     for task in tasks:
@@ -136,11 +137,11 @@ def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], No
         from distributed import Client
         from distributed import as_completed as dask_completed
     except ImportError:
-        raise ValueError("--scheduler needs Dask: pip install 'cml-edge[distributed]'") from None
+        raise InputError("--scheduler needs Dask: pip install 'cml-edge[distributed]'") from None
     try:
         client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError) as exc:
-        raise ValueError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
+        raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
     try:
         with client.as_current():
             futures = client.map(run_task, todo, pure=False)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from cml_edge.arena import GridArena
-from cml_edge.cml import CMLConfig
-from cml_edge.training import TrainConfig
+from cml_edge.core.cml import CMLConfig
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.training import TrainConfig
 
 
 @pytest.fixture

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cml_edge.arena import MOVES, NTH_MOVE, POPCOUNT, GridArena, chebyshev, move_masks
+from cml_edge.grid.arena import MOVES, NTH_MOVE, POPCOUNT, GridArena, chebyshev, move_masks
 
 
 def test_moves_are_the_eight_king_moves():

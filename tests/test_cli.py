@@ -92,7 +92,7 @@ def test_navigate_off_arena(model, cli, start, goal, needle):
 
 
 def test_navigate_onto_obstacle(model, cli):
-    from cml_edge.arena import GridArena
+    from cml_edge.grid.arena import GridArena
 
     arena = GridArena.with_obstacles(10, 30, seed=123)
     x, y = np.argwhere(arena.blocked)[0]

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from cml_edge.arena import MOVES
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.learning import learn_step
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.learning import learn_step
+from cml_edge.grid.arena import MOVES
 
 
 def test_paper_parameter_and_flop_counts():

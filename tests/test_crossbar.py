@@ -14,17 +14,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cml_edge.arena import GridArena
 from cml_edge.backends import array_from_state_dict, make_array
-from cml_edge.backends.crossbar_array import CrossbarArray
-from cml_edge.backends.crossbar_config import PRESETS, make_config, parse_setting
+from cml_edge.backends.crossbar.array import CrossbarArray
+from cml_edge.backends.crossbar.conductance import prog_sigma
+from cml_edge.backends.crossbar.config import PRESETS, make_config, parse_setting
 from cml_edge.cli import main
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.evaluation import run_protocol
-from cml_edge.metrics import draw_pairs
-from cml_edge.planning import plan
-from cml_edge.quant.conductance import prog_sigma
-from cml_edge.training import TrainConfig, train
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
 
 SHAPES = [(256, 2), (8, 256), (256, 8), (3, 5)]
 # a device without noise, variation or periphery effects: pulses are exact level steps

@@ -11,7 +11,6 @@ import sys
 import numpy as np
 import pytest
 
-from cml_edge.arena import GridArena
 from cml_edge.baselines import (
     GOAL_CONDITIONED_LAYERS,
     PAPER_LAYERS,
@@ -23,17 +22,18 @@ from cml_edge.baselines.dqn import (
     DEFAULT_STEPS,
     HYPERPARAMS,
     DQNRun,
-    add_dqn_parser,
     convergence_index,
     curve_convergence,
     fixed_goal,
     fixed_goal_pairs,
-    main,
     read_results,
     run_pairs,
     updating_results,
 )
-from cml_edge.metrics import draw_pairs
+from cml_edge.cli import main as cli_main
+from cml_edge.cli.dqn import add_parsers as add_dqn_parser
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import draw_pairs
 
 HEAVY = ("torch", "stable_baselines3", "gymnasium")
 
@@ -99,7 +99,7 @@ def test_parser_and_one_line_errors(tmp_path, capsys):
     add_dqn_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["dqn", "train", "--reward", "tailored", "--goal-conditioned"])
     assert args.dqn_command == "train" and args.goal_conditioned and args.steps is None
-    code = main(["evaluate", "--results", str(tmp_path / "none.json"), "--no-cml"])
+    code = cli_main(["dqn", "evaluate", "--results", str(tmp_path / "none.json"), "--no-cml"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "no trained DQN" in err
     assert not (tmp_path / "none.json").exists()
@@ -118,7 +118,7 @@ def sb3():
 def test_network_and_hyperparameters(sb3):
     import torch
 
-    from cml_edge.gym_envs import GridNavEnv
+    from cml_edge.grid.env import GridNavEnv
 
     assert torch.get_num_threads() == 1
     model = sb3.make_model(GridNavEnv(), seed=0)
@@ -137,7 +137,7 @@ def test_network_and_hyperparameters(sb3):
 
 
 def test_batched_rollout_matches_env_steps(sb3):
-    from cml_edge.gym_envs import GridNavEnv
+    from cml_edge.grid.env import GridNavEnv
 
     arena = GridArena.empty(30)
     for goal_conditioned in (False, True):
@@ -168,7 +168,7 @@ def test_train_resume_evaluate(sb3, tmp_path):
     models = tmp_path / "models"
     common = ["--steps", "300", "--eval-every", "100", "--trials", "6",
               "--results", str(results), "--json"]
-    assert main(["train", "--seeds", "1", "--models", str(models), *common]) == 0
+    assert cli_main(["dqn", "train", "--seeds", "1", "--models", str(models), *common]) == 0
     data = load_results(results)
     (entry,) = data["runs"].values()
     rec = entry["seeds"]["0"]
@@ -181,18 +181,18 @@ def test_train_resume_evaluate(sb3, tmp_path):
     assert data["network"]["parameters"] == 4872 and data["hyperparameters"] == HYPERPARAMS
     assert (results.parent / "dqn_curves.png").stat().st_size > 0
     # resume: seed 0 is skipped, seed 1 trained
-    assert main(["train", "--seeds", "2", "--models", str(models), *common]) == 0
+    assert cli_main(["dqn", "train", "--seeds", "2", "--models", str(models), *common]) == 0
     data = load_results(results)
     (entry,) = data["runs"].values()
     assert sorted(entry["seeds"]) == ["0", "1"]
     assert entry["seeds"]["0"] == rec
     # evaluate from the saved models reproduces the evaluation recorded at training
-    assert main(["evaluate", "--seeds", "2", "--no-cml", *common]) == 0
+    assert cli_main(["dqn", "evaluate", "--seeds", "2", "--no-cml", *common]) == 0
     ev = load_results(results)["evaluations"][DQNRun(steps=300, trials=6,
                                                      eval_every=100).key]
     assert ev["evaluated_from"] == ["model"] and ev["seeds"] == 2
     finals = np.concatenate([entry["seeds"][s]["final"] for s in ("0", "1")])
-    from cml_edge.metrics import e_pos
+    from cml_edge.grid.metrics import e_pos
 
     goals = np.concatenate([fixed_goal_pairs(GridArena.empty(30), 6, s).goals for s in (0, 1)])
     assert ev["e_pos_mean"] == pytest.approx(e_pos(finals, goals).mean())

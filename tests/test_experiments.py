@@ -6,7 +6,7 @@ import pytest
 
 from cml_edge import experiments
 from cml_edge.cli import main
-from cml_edge.maps import shipped_path
+from cml_edge.grid.maps import shipped_path
 
 
 def test_task_grids():

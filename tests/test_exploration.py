@@ -2,8 +2,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cml_edge.arena import GridArena
-from cml_edge.exploration import VisitedSet, knn_novelty, random_action, threshold
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.exploration import VisitedSet, knn_novelty, random_action, threshold
 
 
 def test_threshold_is_eq_5():
@@ -36,8 +36,8 @@ def test_random_action_is_uniform_over_available():
 
 
 def test_mixed_exploration_covers_more_of_the_arena_early():
-    from cml_edge.cml import CML
-    from cml_edge.training import Explorer, TrainConfig, _train_walks
+    from cml_edge.core.cml import CML
+    from cml_edge.grid.training import Explorer, TrainConfig, _train_walks
 
     arena = GridArena.empty(30)
     coverage = {}

@@ -16,17 +16,17 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from cml_edge.arena import GridArena
 from cml_edge.backends import array_from_state_dict, make_array
-from cml_edge.backends.fixed_array import FixedArray
+from cml_edge.backends.fixed import kernels as kern
+from cml_edge.backends.fixed.array import FixedArray
+from cml_edge.backends.quant import ROUNDINGS, SaturationError, qmax_of
 from cml_edge.cli import main
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.kernels import fixed_array as kern
-from cml_edge.metrics import draw_pairs
-from cml_edge.planning import plan
-from cml_edge.quant.fixed import ROUNDINGS, SaturationError, qmax_of
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
 from cml_edge.storage import load_model, save_model
-from cml_edge.training import TrainConfig, train
 
 FAST = settings(max_examples=40, deadline=None)
 

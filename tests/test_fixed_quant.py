@@ -1,4 +1,4 @@
-"""Number formats, rounding and saturation of the fixed-point array (cml_edge.quant.fixed).
+"""Number formats, rounding and saturation of the fixed-point array (cml_edge.backends.quant).
 
 Golden values are worked out by hand in the comments; the statistical test of
 stochastic rounding allows 4.5 standard errors (a false alarm about once in 150,000).
@@ -13,9 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cml_edge.kernels.fixed_array import lr_mantissa
-from cml_edge.kernels.rng import STREAM_DEVICE, stream_key
-from cml_edge.quant.fixed import (
+from cml_edge.backends.fixed.kernels import lr_mantissa
+from cml_edge.backends.quant import (
     FLOOR,
     NEAREST,
     SIGMOID_LUT,
@@ -33,6 +32,8 @@ from cml_edge.quant.fixed import (
     sigmoid_lut,
     storage_dtype,
 )
+from cml_edge.protocol import STREAM_DEVICE
+from cml_edge.rng import stream_key
 
 KEY = stream_key(7, STREAM_DEVICE)
 FAST = settings(max_examples=60, deadline=None)

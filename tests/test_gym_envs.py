@@ -1,4 +1,4 @@
-"""The Gymnasium grid environments (cml_edge.gym_envs): checkers, dynamics, Eqs. 6-7."""
+"""The Gymnasium grid environments (cml_edge.grid.env): checkers, dynamics, Eqs. 6-7."""
 
 from __future__ import annotations
 
@@ -7,13 +7,14 @@ import warnings
 import numpy as np
 import pytest
 
+from cml_edge.protocol import R_GOAL
+
 gym = pytest.importorskip("gymnasium")
 
-from cml_edge.arena import MOVES, GridArena  # noqa: E402
-from cml_edge.gym_envs import (  # noqa: E402
+from cml_edge.grid.arena import MOVES, GridArena  # noqa: E402
+from cml_edge.grid.env import (  # noqa: E402
     ENV_ID,
     GOAL_ENV_ID,
-    R_GOAL,
     GridNavEnv,
     apply_moves,
     scale_positions,
@@ -51,7 +52,7 @@ def test_registered_ids():
     env = gym.make(GOAL_ENV_ID)
     obs, _ = env.reset(seed=0)
     assert obs.shape == (4,)
-    env = gym.make("cml_edge.gym_envs:cml_edge/GridNav-v0", reward="tailored")
+    env = gym.make("cml_edge.grid.env:cml_edge/GridNav-v0", reward="tailored")
     assert env.unwrapped.reward_name == "tailored"
 
 

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cml_edge.maps import (
+from cml_edge.grid.maps import (
     MapFormatError,
     format_map,
     load_map,

@@ -1,7 +1,7 @@
 import numpy as np
 
-from cml_edge.arena import GridArena
-from cml_edge.metrics import Pairs, draw_pairs, e_pos, summarize
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import Pairs, draw_pairs, e_pos, summarize
 
 
 def test_pairs_are_fixed_by_seed_distinct_and_free():

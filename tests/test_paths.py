@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from cml_edge.cml import CML
-from cml_edge.metrics import draw_pairs
-from cml_edge.planning import plan
-from cml_edge.training import TrainConfig, train
+from cml_edge.core.cml import CML
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
 
 
 def _trained(config, arena, cml_config, seed, path, schedule, explore):
@@ -40,7 +40,7 @@ def test_factored_equals_direct_to_rounding(small_arena, small_config, short_tra
 
 
 def test_planning_paths_agree():
-    from cml_edge.arena import GridArena
+    from cml_edge.grid.arena import GridArena
 
     arena = GridArena.empty(30)
     cml = CML.create(seed=0)
@@ -75,8 +75,8 @@ def test_factored_path_refuses_device_and_step_schedule(small_arena, small_confi
 
 
 def test_utility_normalisation_matters_and_blocked_moves_are_never_taken():
-    from cml_edge.arena import GridArena
-    from cml_edge.cml import CMLConfig
+    from cml_edge.core.cml import CMLConfig
+    from cml_edge.grid.arena import GridArena
 
     arena = GridArena.empty(30)
     success = {}

@@ -4,12 +4,12 @@ and it gets out of traps where the paper's planner halts."""
 import numpy as np
 import pytest
 
-from cml_edge.arena import MOVES, GridArena
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.maps import load_map, load_scen, scenario_pairs, shipped_path, step_budget
-from cml_edge.metrics import draw_pairs
-from cml_edge.planning import WALL_NEXT, plan
-from cml_edge.training import TrainConfig, train
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.grid.arena import MOVES, GridArena
+from cml_edge.grid.maps import load_map, load_scen, scenario_pairs, shipped_path, step_budget
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import WALL_NEXT, plan
+from cml_edge.grid.training import TrainConfig, train
 
 
 @pytest.fixture(scope="module")

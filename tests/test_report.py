@@ -6,7 +6,7 @@ import re
 import pytest
 
 from cml_edge import budget
-from cml_edge.cml import CML
+from cml_edge.core.cml import CML
 from cml_edge.report import build_report, write_report
 from cml_edge.report.render import fmt
 

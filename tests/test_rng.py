@@ -1,6 +1,6 @@
 import numpy as np
 
-from cml_edge.kernels.rng import normal, randint, stream_key, uniform
+from cml_edge.rng import normal, randint, stream_key, uniform
 
 
 def test_same_key_counter_same_draw_and_streams_differ():

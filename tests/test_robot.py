@@ -6,13 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from cml_edge.cml import CML
-from cml_edge.robot import (
-    RobotModelError,
-    load_robot_models,
-    save_robot_models,
-)
-from cml_edge.robot_cml import (
+from cml_edge.core.cml import CML
+from cml_edge.robot.cml import (
     BASE_POSE,
     OBSERVATIONS,
     RobotCMLSettings,
@@ -22,7 +17,12 @@ from cml_edge.robot_cml import (
     plan_robot,
     train_robot,
 )
-from cml_edge.robot_sim import (
+from cml_edge.robot.models import (
+    RobotModelError,
+    load_robot_models,
+    save_robot_models,
+)
+from cml_edge.robot.sim import (
     WHEEL_FRACTIONS,
     KinematicSim,
     RobotConfig,
@@ -339,7 +339,7 @@ def test_cli_bad_planning_input_exits_2(model, tmp_path, cli):
         code, out, err = cli("robot", *argv)
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1
     grid = tmp_path / "grid.npz"
-    from cml_edge.cml import CMLConfig
+    from cml_edge.core.cml import CMLConfig
     from cml_edge.storage import save_model
 
     save_model(grid, CML.create(CMLConfig.for_arena(10)), {})
@@ -352,7 +352,7 @@ def test_gym_environment():
     pytest.importorskip("gymnasium")
     from gymnasium.utils.env_checker import check_env
 
-    from cml_edge.robot_env import RobotNavEnv
+    from cml_edge.robot.env import RobotNavEnv
 
     env = RobotNavEnv(observation="heading", goal_conditioned=True, reward="tailored")
     check_env(env, skip_render_check=True)
@@ -371,7 +371,7 @@ def test_sb3_checker_and_a_short_dqn_run_on_the_robot():
     sb3 = pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_checker import check_env
 
-    from cml_edge.robot_env import RobotNavEnv
+    from cml_edge.robot.env import RobotNavEnv
 
     env = RobotNavEnv(observation="heading")
     check_env(env)

@@ -12,9 +12,10 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray
-from cml_edge.backends.crossbar_array import CrossbarArray
-from cml_edge.backends.fixed_array import FixedArray
-from cml_edge.backends.float_array import FloatArray
+from cml_edge.backends.crossbar.array import CrossbarArray
+from cml_edge.backends.fixed.array import FixedArray
+from cml_edge.backends.floating.array import FloatArray
+from cml_edge.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ def backend_spec(name: str) -> BackendSpec:
     try:
         return BACKENDS[name]
     except KeyError:
-        raise ValueError(
+        raise InputError(
             f"unknown backend {name!r}; allowed: {', '.join(sorted(BACKENDS))}"
         ) from None
 
@@ -64,7 +65,7 @@ def array_from_state_dict(d: dict[str, np.ndarray]) -> SynapticArray:
     """Rebuild any registered array from its ``state_dict``."""
     kind = str(d.get("__backend__", ""))
     if kind not in ARRAY_CLASSES:
-        raise ValueError(f"unknown array kind {kind!r}; known: {', '.join(sorted(ARRAY_CLASSES))}")
+        raise InputError(f"unknown array kind {kind!r}; known: {', '.join(sorted(ARRAY_CLASSES))}")
     return ARRAY_CLASSES[kind].from_state_dict(d)
 
 

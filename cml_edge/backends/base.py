@@ -5,7 +5,7 @@ keeps it (floats, integer mantissas, conductance pairs) and offers ``matvec``,
 ``rmatvec``, ``outer_update``, ``commit``, ``to_float``, ``counters`` and an exact
 ``state_dict`` round trip. Its whole mutable state is one ``NamedTuple`` of NumPy
 arrays (``self.state``); its arithmetic is the four ``@njit`` kernels it registered
-with :mod:`cml_edge.kernels.dispatch`, which the Python methods below and the
+with :mod:`cml_edge.backends.dispatch`, which the Python methods below and the
 compiled loops both call, so the two paths cannot disagree.
 """
 
@@ -16,7 +16,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from cml_edge.kernels.dispatch import kernels_for
+from cml_edge.backends.dispatch import kernels_for
+from cml_edge.errors import InputError
 
 
 class SynapticArray:
@@ -26,7 +27,7 @@ class SynapticArray:
     (rows, cols) array, which gives the shape, and whose last field is ``counters``, an
     int64 vector indexed like ``counter_names``), implement ``from_float``,
     ``to_float`` and ``options``, and register their five kernels
-    (:class:`cml_edge.kernels.dispatch.Kernels`). Optional: ``elapse`` (drift),
+    (:class:`cml_edge.backends.dispatch.Kernels`). Optional: ``elapse`` (drift),
     ``add_cli_arguments(group)`` / ``cli_options(args)`` classmethods for the
     backend's own command-line options.
     """
@@ -124,27 +125,27 @@ class SynapticArray:
         """Rebuild an array saved by ``state_dict``; raises ValueError on anything foreign."""
         backend = str(d.get("__backend__", ""))
         if backend != cls.name:
-            raise ValueError(f"state is of backend {backend!r}, expected {cls.name!r}")
+            raise InputError(f"state is of backend {backend!r}, expected {cls.name!r}")
         missing = [f for f in cls.State._fields if f not in d]
         if missing:
-            raise ValueError(f"state of backend {cls.name!r} lacks {', '.join(missing)}")
+            raise InputError(f"state of backend {cls.name!r} lacks {', '.join(missing)}")
         template = cls._template(json.loads(str(d["__options__"])), d["counters"].shape)
         fields = []
         for f in cls.State._fields:
             a, t = np.asarray(d[f]), getattr(template, f)
             if a.dtype != t.dtype or a.ndim != t.ndim:
-                raise ValueError(
+                raise InputError(
                     f"field {f!r}: {a.dtype}[{a.ndim}d] where {t.dtype}[{t.ndim}d] is expected"
                 )
             fields.append(np.array(a, copy=True))
         state = cls.State(*fields)
         if state.counters.shape != (len(cls.counter_names),):
-            raise ValueError(f"counters: {state.counters.shape[0]} where "
+            raise InputError(f"counters: {state.counters.shape[0]} where "
                              f"{len(cls.counter_names)} are expected")
         shape = state[0].shape
         for f, a in zip(cls.State._fields, state):
             if a.ndim == 2 and a.shape != shape:
-                raise ValueError(f"field {f!r} has shape {a.shape}, expected {shape}")
+                raise InputError(f"field {f!r} has shape {a.shape}, expected {shape}")
         return cls._restore(state, json.loads(str(d["__options__"])))
 
     @classmethod
@@ -160,5 +161,5 @@ class SynapticArray:
 def _vector(x: np.ndarray, n: int) -> np.ndarray:
     v = np.ascontiguousarray(x, dtype=np.float64)
     if v.shape != (n,):
-        raise ValueError(f"expected a vector of length {n}, got shape {v.shape}")
+        raise InputError(f"expected a vector of length {n}, got shape {v.shape}")
     return v

@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from cml_edge.errors import InputError
+
 RESULTS_FORMAT = "cml-edge-dqn-results"
 RESULTS_VERSION = 1
 DEFAULT_RESULTS = Path("hw_reports") / "baselines" / "dqn_results.json"
@@ -48,7 +50,7 @@ def load_results(path: str | Path = DEFAULT_RESULTS) -> dict[str, Any] | None:
         return None
     data = json.loads(path.read_text())
     if data.get("format") != RESULTS_FORMAT:
-        raise ValueError(f"{str(path)!r} is not a cml-edge DQN results file")
+        raise InputError(f"{str(path)!r} is not a cml-edge DQN results file")
     return data
 
 

@@ -8,7 +8,7 @@ from Hill et al., 2018"), listed in :data:`HYPERPARAMS`. SB3's DQN is *vanilla* 
 original stable-baselines also used Double-Q targets and a dueling head by default, which
 SB3 does not implement. SB3's own defaults are Atari settings and did not learn this task.
 
-Environments: :mod:`cml_edge.gym_envs` (stay in place on a blocked move, goal ends the
+Environments: :mod:`cml_edge.grid.env` (stay in place on a blocked move, goal ends the
 episode, truncation at 100 steps, Eq. 6 or Eq. 7 rewards).
 
 What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
@@ -40,7 +40,6 @@ interrupted run resumes. Models (SB3 zips) go to ``--models`` (default ``runs/dq
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
 import fcntl
 import json
@@ -58,8 +57,6 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
-from cml_edge.arena import GridArena
-from cml_edge.argtypes import Progress, arena_size, nonneg_int, positive_int
 from cml_edge.baselines import (
     DEFAULT_RESULTS,
     GOAL_CONDITIONED_LAYERS,
@@ -70,7 +67,9 @@ from cml_edge.baselines import (
     mlp_inference_flops,
     mlp_parameter_count,
 )
-from cml_edge.metrics import (
+from cml_edge.errors import InputError
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import (
     CONVERGENCE_TOL,
     Pairs,
     chebyshev,
@@ -80,10 +79,9 @@ from cml_edge.metrics import (
     geodesic_distances,
     summarize,
 )
+from cml_edge.protocol import EVAL_SEED, REWARDS
 from cml_edge.storage import atomic_write_text
 
-EVAL_SEED = 123  # the protocol's evaluation seed (cml_edge.evaluation.EVAL_SEED)
-REWARDS = ("simplified", "tailored")
 # Training budgets of the paper (2.3): 100,000 steps with Eq. 6, 200,000 with Eq. 7.
 DEFAULT_STEPS = {"simplified": 100_000, "tailored": 200_000}
 EVAL_EVERY = 5_000
@@ -127,13 +125,13 @@ class DQNRun:
 
     def __post_init__(self) -> None:
         if self.reward not in REWARDS:
-            raise ValueError(f"unknown reward {self.reward!r}; allowed: {', '.join(REWARDS)}")
+            raise InputError(f"unknown reward {self.reward!r}; allowed: {', '.join(REWARDS)}")
         for name in ("steps", "trials", "eval_every"):
             v = getattr(self, name)
             if isinstance(v, bool) or int(v) != v or v < 1:
-                raise ValueError(f"{name} {v!r} is not a positive integer")
+                raise InputError(f"{name} {v!r} is not a positive integer")
         if isinstance(self.arena, bool) or int(self.arena) != self.arena or self.arena < 2:
-            raise ValueError(f"arena {self.arena!r} is not an integer >= 2")
+            raise InputError(f"arena {self.arena!r} is not an integer >= 2")
 
     @property
     def name(self) -> str:
@@ -241,7 +239,7 @@ def read_results(path: str | Path) -> dict[str, Any]:
     if data is None:
         return _empty_results()
     if data.get("format_version") != RESULTS_VERSION:
-        raise ValueError(f"{str(path)!r} has DQN results version {data.get('format_version')}, "
+        raise InputError(f"{str(path)!r} has DQN results version {data.get('format_version')}, "
                          f"this cml-edge writes version {RESULTS_VERSION}")
     return data
 
@@ -282,7 +280,7 @@ def _sb3():
     try:
         from cml_edge.baselines import dqn_sb3
     except ImportError as exc:
-        raise ValueError(f"{EXTRA_HINT} ({exc})") from None
+        raise InputError(f"{EXTRA_HINT} ({exc})") from None
     return dqn_sb3
 
 
@@ -354,9 +352,9 @@ def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
     evaluation. With ``curves_from`` (the result of another path on the same seeds) the
     curve is taken from it instead of planned again: the factored and direct paths give
     the same weights to rounding (tests/test_paths.py), so only the timing is new."""
-    from cml_edge.cml import CML, CMLConfig
-    from cml_edge.planning import plan
-    from cml_edge.training import TrainConfig, train
+    from cml_edge.core.cml import CML, CMLConfig
+    from cml_edge.grid.planning import plan
+    from cml_edge.grid.training import TrainConfig, train
 
     config = TrainConfig(walks, steps)
     cml_config = CMLConfig.for_arena(arena.size)
@@ -411,11 +409,11 @@ def evaluate_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAU
     data = read_results(results)
     entry = data["runs"].get(run.key)
     if entry is None:
-        raise ValueError(f"no trained DQN {run.key!r} in {str(results)!r}; run "
+        raise InputError(f"no trained DQN {run.key!r} in {str(results)!r}; run "
                          f"'cml-edge dqn train' with the same options first")
     missing = [s for s in seeds if str(s) not in entry["seeds"]]
     if missing:
-        raise ValueError(f"seeds {missing} of {run.key!r} are not trained yet in "
+        raise InputError(f"seeds {missing} of {run.key!r} are not trained yet in "
                          f"{str(results)!r} (trained: {sorted(map(int, entry['seeds']))})")
     arena = GridArena.empty(run.arena)
     records = [entry["seeds"][str(s)] for s in seeds]
@@ -529,80 +527,8 @@ def plot_results(data: dict[str, Any], path: str | Path) -> None:
     plt.close(fig)
 
 
-# command line ----------------------------------------------------------------------
-def add_dqn_parser(subparsers) -> None:
-    """Add ``dqn train|evaluate`` to the ``cml-edge`` subcommands."""
-    p = subparsers.add_parser("dqn", help="DQN baseline (needs the dqn extra): train, or "
-                              "evaluate beside the CML on the same pairs")
-    sub = p.add_subparsers(dest="dqn_command", required=True, parser_class=type(p))
-    for name, help_text in (("train", "train DQN seeds (resumes: skips seeds already done)"),
-                            ("evaluate", "evaluate trained seeds and the CML on the same "
-                             "pairs; training-time-to-convergence ratio")):
-        q = sub.add_parser(name, help=help_text)
-        q.add_argument("--reward", choices=REWARDS, default="simplified",
-                       help="Eq. 6 simplified (default) or Eq. 7 tailored")
-        q.add_argument("--goal-conditioned", action="store_true",
-                       help="inputs (x, y, goal x, goal y), a new goal every episode")
-        q.add_argument("--seeds", type=positive_int, default=10,
-                       help="seeds 0..N-1 (10)")
-        q.add_argument("--steps", type=positive_int, default=None,
-                       help="training steps per seed (default 100000 simplified, "
-                            "200000 tailored)")
-        q.add_argument("--arena", type=arena_size, default=30)
-        q.add_argument("--trials", type=positive_int, default=100,
-                       help="evaluation pairs per seed (100)")
-        q.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
-                       help=f"evaluation seed: goals and pairs ({EVAL_SEED})")
-        q.add_argument("--eval-every", type=positive_int, default=EVAL_EVERY,
-                       help=f"training steps between curve points ({EVAL_EVERY})")
-        q.add_argument("--results", default=str(DEFAULT_RESULTS),
-                       help=f"results file ({DEFAULT_RESULTS})")
-        q.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-        if name == "train":
-            q.add_argument("--models", default=str(MODELS_DIR),
-                           help=f"folder for the trained models ({MODELS_DIR})")
-        else:
-            q.add_argument("--no-cml", action="store_true",
-                           help="skip training and evaluating the CML beside it")
+if __name__ == "__main__":  # pragma: no cover - the same as ``cml-edge dqn ...``
+    from cml_edge.cli import main
 
-
-def _run_from_args(args: argparse.Namespace) -> DQNRun:
-    steps = args.steps if args.steps is not None else DEFAULT_STEPS[args.reward]
-    return DQNRun(args.reward, args.goal_conditioned, steps, args.arena, args.trials,
-                  args.eval_seed, args.eval_every)
-
-
-def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
-    """``cml-edge dqn train|evaluate``: the JSON-ready result."""
-    run = _run_from_args(args)
-    command = getattr(args, "command_line", None) or "cml-edge " + " ".join(sys.argv[1:])
-    seeds = range(args.seeds)
-    if args.dqn_command == "train":
-        return train_runs(run, seeds, args.results, args.models, command,
-                          Progress(f"dqn train {run.name}"))
-    return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m cml_edge.baselines.dqn train|evaluate ...`` (same as ``cml-edge dqn``)."""
-    parser = argparse.ArgumentParser(prog="cml-edge")
-    add_dqn_parser(parser.add_subparsers(dest="command", required=True))
-    argv = sys.argv[1:] if argv is None else argv
-    args = parser.parse_args(["dqn", *argv])
-    args.command_line = "python -m cml_edge.baselines.dqn " + " ".join(argv)
-    try:
-        result = cmd_dqn(args)
-    except ValueError as exc:
-        print(f"cml-edge: error: {exc}", file=sys.stderr)
-        return 2
-    if args.json:
-        print(json.dumps(result))
-    else:
-        for k, v in result.items():
-            if not isinstance(v, (dict, list)):
-                print(f"{k:>24}: {v:.4f}" if isinstance(v, float) else f"{k:>24}: {v}")
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    sys.argv = ["cml-edge", "dqn", *sys.argv[1:]]
+    sys.exit(main(sys.argv[1:]))

@@ -21,10 +21,10 @@ from stable_baselines3 import DQN
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
-from cml_edge.arena import GridArena
 from cml_edge.baselines.dqn import HYPERPARAMS, NET_ARCH, DQNRun
-from cml_edge.gym_envs import GridNavEnv, apply_moves, scale_positions
-from cml_edge.metrics import Pairs
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.env import GridNavEnv, apply_moves, scale_positions
+from cml_edge.grid.metrics import Pairs
 from cml_edge.storage import atomic_write
 
 torch.set_num_threads(1)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cml_edge.maps import GridMap, format_map, format_scen, octile_distances, parse_map
+from cml_edge.grid.maps import GridMap, format_map, format_scen, octile_distances, parse_map
 from cml_edge.storage import atomic_write_text
 
 SIDE = 32

@@ -11,6 +11,8 @@ from __future__ import annotations
 from importlib import import_module
 from types import ModuleType
 
+from cml_edge.errors import InputError
+
 EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "obstacles",
                "maps", "backends")
 
@@ -18,5 +20,5 @@ EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "o
 def get(name: str) -> ModuleType:
     """The module of experiment ``name``; ValueError naming the allowed ones otherwise."""
     if name not in EXPERIMENTS:
-        raise ValueError(f"unknown experiment {name!r}; allowed: {', '.join(EXPERIMENTS)}")
+        raise InputError(f"unknown experiment {name!r}; allowed: {', '.join(EXPERIMENTS)}")
     return import_module(f"cml_edge.experiments.{name}")

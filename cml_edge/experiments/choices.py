@@ -2,7 +2,7 @@
 
     python -m cml_edge.experiments.choices [--out runs/choices.json]
 
-Each row changes one choice of :mod:`cml_edge.cml` against the defaults: the
+Each row changes one choice of :mod:`cml_edge.core.cml` against the defaults: the
 observation frame (centred vs corner origin), the W_q initialisation scale, and the
 planning utility (column-normalised vs raw), for both exploration strategies. Float64
 array, factored path, 10 seeds x 100 pairs, evaluation seed 123.
@@ -14,10 +14,10 @@ import argparse
 import json
 import sys
 
-from cml_edge.cml import CMLConfig
-from cml_edge.evaluation import run_protocol
+from cml_edge.core.cml import CMLConfig
+from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.training import TrainConfig
 from cml_edge.storage import atomic_write_text
-from cml_edge.training import TrainConfig
 
 VARIANTS = {
     "defaults (centred frame, W_q ~ N(0, 1/256), normalised utility)": {},

@@ -27,15 +27,16 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.arena import GridArena
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.evaluation import EVAL_SEED
-from cml_edge.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
-from cml_edge.metrics import Pairs, draw_pairs, e_pos, summarize
-from cml_edge.planning import plan
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.errors import InputError
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
+from cml_edge.grid.metrics import Pairs, draw_pairs, e_pos, summarize
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
+from cml_edge.protocol import EVAL_SEED
 from cml_edge.storage import atomic_write_text
 from cml_edge.sweep import Task, run_sweep
-from cml_edge.training import TrainConfig, train
 
 TASK_FN = "cml_edge.experiments.common:train_eval"
 DEFAULT_SEEDS = 10
@@ -119,7 +120,7 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
 def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Task]:
     """The (configuration x seed) grid: one task per pair, key ``CONFIG-sSEED``."""
     if isinstance(seeds, bool) or int(seeds) != seeds or seeds < 1:
-        raise ValueError(f"seeds {seeds!r} is not an integer >= 1")
+        raise InputError(f"seeds {seeds!r} is not an integer >= 1")
     return [Task(f"{cid}-s{seed}", TASK_FN, {**params, "seed": seed})
             for cid, params in configs for seed in range(seeds)]
 
@@ -128,7 +129,7 @@ def reject(name: str, **given: Any) -> None:
     """ValueError naming the options experiment ``name`` does not take."""
     bad = [k for k, v in given.items() if v]
     if bad:
-        raise ValueError(f"experiment {name!r} does not take --{bad[0]}")
+        raise InputError(f"experiment {name!r} does not take --{bad[0]}")
 
 
 def config_id(key: str) -> str:

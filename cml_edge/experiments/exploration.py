@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from cml_edge.errors import InputError
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
@@ -24,7 +25,7 @@ from cml_edge.experiments.common import (
     make_tasks,
     summary_rows,
 )
-from cml_edge.maps import load_map, resolve_map
+from cml_edge.grid.maps import load_map, resolve_map
 from cml_edge.plots import save_png
 from cml_edge.sweep import Task
 
@@ -40,7 +41,7 @@ COLUMNS = ("walks", "steps", "explore", "eval", "success_rate", "e_pos_mean", "e
 def tasks(seeds: int = DEFAULT_SEEDS, planner: str | None = None, map: str | None = None,
           scen: str | None = None) -> list[Task]:
     if scen and not map:
-        raise ValueError("--scen needs --map")
+        raise InputError("--scen needs --map")
     arena = 30
     spec = eval_spec("arena30", planner=planner or "paper")
     if map:

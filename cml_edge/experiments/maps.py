@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from cml_edge.errors import InputError
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
@@ -24,8 +25,8 @@ from cml_edge.experiments.common import (
     make_tasks,
     summary_rows,
 )
-from cml_edge.maps import load_map, resolve_map, shipped_maps, shipped_path
-from cml_edge.planning import PLANNERS
+from cml_edge.grid.maps import load_map, resolve_map, shipped_maps, shipped_path
+from cml_edge.grid.planning import PLANNERS
 from cml_edge.plots import save_png
 from cml_edge.sweep import Task
 
@@ -39,7 +40,7 @@ COLUMNS = ("map", "planner", "max_steps", "connected_pairs", "success_rate_conne
 def tasks(seeds: int = DEFAULT_SEEDS, planner: str | None = None, map: str | None = None,
           scen: str | None = None) -> list[Task]:
     if scen and not map:
-        raise ValueError("--scen needs --map")
+        raise InputError("--scen needs --map")
     planners = (planner,) if planner else PLANNERS
     if map:
         files = [(str(resolve_map(map)), scen)]
@@ -63,11 +64,11 @@ def rows(results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) -> None:
-    from cml_edge.arena import GridArena
-    from cml_edge.cml import CML, CMLConfig
+    from cml_edge.core.cml import CML, CMLConfig
     from cml_edge.experiments.common import _eval_setting
-    from cml_edge.planning import plan
-    from cml_edge.training import TrainConfig, train
+    from cml_edge.grid.arena import GridArena
+    from cml_edge.grid.planning import plan
+    from cml_edge.grid.training import TrainConfig, train
 
     maps = sorted({r["map"] for r in rows_})
     plt = figure()

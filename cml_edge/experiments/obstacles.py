@@ -5,7 +5,7 @@
 Ten CMLs trained on the empty 30 x 30 arena (random exploration, float64, factored
 path) plan 100 fixed pairs with 0, 100, 200, 300 and 400 point obstacles placed from
 the evaluation seed at evaluation only, with the paper's planner and with the escape
-planner (:mod:`cml_edge.planning`), 100 actions each. Success is counted over the
+planner (:mod:`cml_edge.grid.planning`), 100 actions each. Success is counted over the
 pairs that are connected at all (BFS); path length is reported against the geodesic.
 The paper: fine at 100-200 obstacles, the planner halts in front of clusters at
 300-400.
@@ -27,8 +27,9 @@ from cml_edge.experiments.common import (
     reject,
     summary_rows,
 )
-from cml_edge.planning import PLANNERS
+from cml_edge.grid.planning import PLANNERS
 from cml_edge.plots import save_png
+from cml_edge.protocol import EVAL_SEED
 from cml_edge.sweep import Task
 
 NAME = "obstacles"
@@ -80,12 +81,11 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
 
 def _example(ax) -> None:
     """Seed 0 at 400 obstacles: the first pair the paper's planner fails, both paths."""
-    from cml_edge.arena import GridArena
-    from cml_edge.cml import CML, CMLConfig
-    from cml_edge.evaluation import EVAL_SEED
-    from cml_edge.metrics import draw_pairs
-    from cml_edge.planning import plan
-    from cml_edge.training import TrainConfig, train
+    from cml_edge.core.cml import CML, CMLConfig
+    from cml_edge.grid.arena import GridArena
+    from cml_edge.grid.metrics import draw_pairs
+    from cml_edge.grid.planning import plan
+    from cml_edge.grid.training import TrainConfig, train
 
     arena = GridArena.with_obstacles(30, 400, EVAL_SEED)
     pairs = draw_pairs(arena, 100, EVAL_SEED)

@@ -25,14 +25,15 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__, budget
-from cml_edge.arena import GridArena
 from cml_edge.backends import BACKENDS
 from cml_edge.baselines import load_results
-from cml_edge.cml import CML, CMLConfig
-from cml_edge.evaluation import EVAL_SEED, run_protocol
-from cml_edge.metrics import convergence_index, draw_pairs
-from cml_edge.planning import plan
-from cml_edge.training import TrainConfig, train
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.metrics import convergence_index, draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
+from cml_edge.protocol import EVAL_SEED
 
 SCHEMA_VERSION = 1
 N_EXAMPLES = 3

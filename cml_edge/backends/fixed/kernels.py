@@ -1,0 +1,394 @@
+"""Kernels of the Loihi-style fixed-point array: integer reads, integer local updates.
+
+One source of truth: :class:`cml_edge.backends.fixed_array.FixedArray` calls these
+kernels from Python and the compiled training and planning loops call them through
+the seam (:mod:`cml_edge.backends.dispatch`). All arithmetic on the weights is integer
+(int64 registers emulating the widths in ``params``), so the order of a sum cannot
+change a bit; the only floating-point steps are the exact power-of-two scalings at
+the array's edge (float input -> mantissas, integer sum -> float output) and the
+draws of stochastic rounding, which come from the counter-based generator keyed by
+the array's stream (``rng[0]``) at the counter ``rng[1]``, advanced one per draw.
+
+Read, W x (and W^T y the same way on the same mantissas):
+
+1. x is quantised to ``act_bits`` with its own exponent e_x (nearest, ties to even);
+2. integer multiply-accumulate of the weight mantissas with the nonzero input
+   mantissas (an event-driven array does no work for a zero input) into a
+   ``mac_bits`` accumulator (default 32). Overflow proof, checked for the shape when
+   the array is built: |sum| <= n qmax_w qmax_x (n = cols, or rows for W^T y), e.g.
+   256 x 127 x 127 = 4,129,024 < 2^31 for int8, 256 x 32767 x 127 = 1,065,320,448 < 2^31
+   for int16. Where the bound exceeds the accumulator (``params[P_MV_CHECK]``) each sum
+   is checked, saturated and counted (``mac_saturations``), or raises in strict mode;
+3. ONE arithmetic right shift (floor) of the sum by a fixed amount into the 24-bit
+   neuron input (zero for int8 x 8-bit activations; 7 for int16), then the output
+   is that integer x 2^(e_w + e_x + shift), exactly.
+
+Update, W += lr post pre^T:
+
+1. post and pre are quantised to ``act_bits`` with their own exponents e_p, e_q;
+   lr is an ``lr_bits`` mantissa x 2^lr_e (default 4 bits, as Lava: 0.001 = 8 x 2^-13);
+2. each cell with both factors nonzero forms the integer product
+   P = lr_m m_post[i] m_pre[j] (lr_bits + 2 (act_bits - 1) bits, 18 by default), in
+   units of 2^(lr_e + e_p + e_q);
+3. per walk (``defer``): P is narrowed to the learning accumulator's unit,
+   2^(e_w - F) with F = acc_bits - bits - 1 fractional bits, by the array's rounding
+   mode, and added there (saturating at +-(2^(acc_bits-1) - 1), counted); ``commit``
+   rounds each accumulator to the weight's unit (drop F bits, the rounding mode),
+   adds it to the weight, saturates (counted) and clears the accumulator: no sub-LSB
+   state survives a commit;
+   per step (not ``defer``): P is narrowed straight to the weight's unit 2^e_w by the
+   rounding mode and added to the weight in place, saturated.
+
+Counters (``FixedArray.counter_names``): ``macs`` are the integer multiply-adds of
+reads; ``update_macs`` the integer products formed by updates; ``weight_reads`` the
+weights read (reads, and read-modify-writes of a weight); ``acc_writes`` /
+``weight_writes`` the cells written (a rounded update of zero is not written);
+``cells_changed`` the weights whose stored value changed; ``saturations`` (weights),
+``acc_saturations`` (learning accumulator), ``mac_saturations`` (read accumulator);
+``rng_draws``; ``bytes_read`` / ``bytes_written`` the weight and accumulator bytes moved
+(weights at their storage width, the accumulator at its own).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from cml_edge.backends.quant import (
+    NEAREST,
+    STOCHASTIC,
+    SaturationError,
+    quantize_vector,
+    saturate,
+    shift_round,
+    sigmoid_lut,
+)
+from cml_edge.errors import InputError
+from cml_edge.rng import uniform
+
+# params (int64 vector in the state)
+P_EXP, P_BITS, P_QMAX, P_ROUNDING, P_ACT_QMAX, P_FRAC, P_ACC_MAX = 0, 1, 2, 3, 4, 5, 6
+P_MAC_MAX, P_MV_CHECK, P_RMV_CHECK, P_MV_SHIFT, P_RMV_SHIFT, P_STRICT = 7, 8, 9, 10, 11, 12
+P_LR_BITS = 13
+N_PARAMS = 14
+
+# counter indices (names in FixedArray.counter_names)
+MATVECS, RMATVECS, MACS, WEIGHT_READS, OUTER_UPDATES, UPDATE_MACS = 0, 1, 2, 3, 4, 5
+ACC_WRITES, WEIGHT_WRITES, CELLS_CHANGED, COMMITS, SATURATIONS = 6, 7, 8, 9, 10
+ACC_SATURATIONS, MAC_SATURATIONS, RNG_DRAWS, BYTES_READ, BYTES_WRITTEN = 11, 12, 13, 14, 15
+N_COUNTERS = 16
+
+NARROW = 16  # matrices with at most this many columns are walked column by column
+NEURON_BITS = 24  # the neuron input a read's sum is shifted into
+BIG_SHIFT = np.int64(1) << np.int64(62)
+
+
+@njit(cache=True)
+def lr_mantissa(lr, lr_bits):
+    """lr as (m, e) with m an lr_bits-bit mantissa (nearest, ties to even), lr ~ m 2^e."""
+    if not abs(lr) <= 1.7976931348623157e308:
+        raise InputError("non-finite learning rate")
+    if lr == 0.0:
+        return np.int64(0), 0
+    f, ex = math.frexp(abs(lr))  # f in [0.5, 1)
+    m = np.rint(math.ldexp(f, lr_bits))
+    e = ex - lr_bits
+    if m >= float(1 << lr_bits):
+        m = m / 2.0
+        e += 1
+    mi = np.int64(m)
+    return (mi if lr > 0 else -mi), e
+
+
+@njit(cache=True)
+def _emit(state, sums, n, ex, check, shift, out, strict):
+    """out[:n] = (saturated sums >> shift) x 2^(e_w + ex + shift); returns saturations."""
+    p = state.params
+    e_out = p[P_EXP] + ex + shift
+    sats = 0
+    if check:
+        mac_max = p[P_MAC_MAX]
+        for i in range(n):
+            s, sat = saturate(sums[i], mac_max)
+            sums[i] = s
+            sats += sat
+        if sats and strict:
+            raise SaturationError("read accumulator overflow (strict mode)")
+    if -1000 < e_out < 1000:  # a power of two that is a normal double: exact multiply
+        scale = math.ldexp(1.0, e_out)
+        for i in range(n):
+            out[i] = float(sums[i] >> shift) * scale
+    else:
+        for i in range(n):
+            out[i] = math.ldexp(float(sums[i] >> shift), e_out)
+    return sats
+
+
+@njit(cache=True, inline="always")
+def fixed_matvec(state, x, out):
+    m = state.mantissa
+    p = state.params
+    xq = state.xq
+    sums = state.sums
+    rows, cols = m.shape
+    ex = quantize_vector(x, cols, p[P_ACT_QMAX], xq)
+    nnz = 0
+    if cols <= NARROW:
+        for i in range(rows):
+            sums[i] = 0
+        for j in range(cols):
+            v = xq[j]
+            if v == 0:
+                continue
+            nnz += 1
+            for i in range(rows):
+                sums[i] += m[i, j] * v
+    else:
+        for j in range(cols):
+            if xq[j] != 0:
+                nnz += 1
+        for i in range(rows):
+            s = np.int64(0)
+            for j in range(cols):
+                s += m[i, j] * xq[j]
+            sums[i] = s
+    sats = _emit(state, sums, rows, ex, p[P_MV_CHECK], p[P_MV_SHIFT], out, p[P_STRICT])
+    done = nnz * rows
+    c = state.counters
+    c[MATVECS] += 1
+    c[MACS] += done
+    c[WEIGHT_READS] += done
+    c[BYTES_READ] += done * m.itemsize
+    c[MAC_SATURATIONS] += sats
+
+
+@njit(cache=True, inline="always")
+def fixed_rmatvec(state, y, out):
+    m = state.mantissa
+    p = state.params
+    yq = state.xq
+    sums = state.sums
+    rows, cols = m.shape
+    ey = quantize_vector(y, rows, p[P_ACT_QMAX], yq)
+    for j in range(cols):
+        sums[j] = 0
+    nnz = 0
+    for i in range(rows):
+        v = yq[i]
+        if v == 0:
+            continue
+        nnz += 1
+        for j in range(cols):
+            sums[j] += m[i, j] * v
+    sats = _emit(state, sums, cols, ey, p[P_RMV_CHECK], p[P_RMV_SHIFT], out, p[P_STRICT])
+    done = nnz * cols
+    c = state.counters
+    c[RMATVECS] += 1
+    c[MACS] += done
+    c[WEIGHT_READS] += done
+    c[BYTES_READ] += done * m.itemsize
+    c[MAC_SATURATIONS] += sats
+
+
+@njit(cache=True, inline="always")
+def _scaled(prod, pk, nk, big, mode, key, ctr, half, two_k):
+    """round(prod 2^-k) in ``mode`` (k = pk > 0, or -nk <= 0 exact); returns (d, ctr)."""
+    if pk == 0:  # exact; beyond any format if big
+        return ((BIG_SHIFT if prod > 0 else -BIG_SHIFT) if big else prod << nk), ctr
+    if pk > 62:
+        d, drew = shift_round(prod, pk, mode, key, ctr)
+        return d, ctr + drew
+    d = prod >> pk  # floor
+    r = prod - (d << pk)
+    if r != 0:
+        if mode == NEAREST:
+            if r > half or (r == half and (d & 1) != 0):
+                d += 1
+        elif mode == STOCHASTIC:
+            if uniform(key, ctr) * two_k < float(r):
+                d += 1
+            ctr += 1
+    return d, ctr
+
+
+@njit(cache=True, inline="always")
+def _saturating_add(target, i, j, d, limit):
+    """target[i, j] += d clipped to +-limit; returns (changed, saturated) as 0/1."""
+    old = np.int64(target[i, j])
+    new = old + d
+    sat = 0
+    if new > limit:
+        new = limit
+        sat = 1
+    elif new < -limit:
+        new = -limit
+        sat = 1
+    target[i, j] = new
+    return int(new != old), sat
+
+
+@njit(cache=True)
+def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
+    """target += round(rf cq^T 2^-k) on the cells whose factors are both nonzero.
+
+    ``top`` bounds |rf[i] cq[j]|. Saturates at +-limit; tally[:4] gets writes, changes,
+    saturations, draws. Returns the number of cells touched (integer products formed).
+    Narrow matrices (cols <= NARROW) are walked column by column (a one-hot pre touches
+    one column only), wide ones row by row; the order fixes which random draw each
+    cell gets.
+    """
+    key = rng[0]
+    ctr = np.int64(rng[1])
+    ctr0 = ctr
+    written = 0
+    changed = 0
+    sats = 0
+    touched = 0
+    big = k < 0 and (k < -62 or top >= (BIG_SHIFT >> np.int64(-k)))
+    nk = np.int64(-k) if k < 0 else np.int64(0)
+    pk = np.int64(k) if k > 0 else np.int64(0)
+    two_k = math.ldexp(1.0, int(pk)) if pk <= 62 else 0.0
+    half = (np.int64(1) << (pk - 1)) if 0 < pk <= 62 else np.int64(0)
+    if cols <= NARROW:
+        for a in range(cols):
+            fa = cq[a]
+            if fa == 0:
+                continue
+            for b in range(rows):
+                fb = rf[b]
+                if fb == 0:
+                    continue
+                touched += 1
+                d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
+                if d != 0:
+                    ch, sat = _saturating_add(target, b, a, d, limit)
+                    written += 1
+                    changed += ch
+                    sats += sat
+    else:
+        for a in range(rows):
+            fa = rf[a]
+            if fa == 0:
+                continue
+            for b in range(cols):
+                fb = cq[b]
+                if fb == 0:
+                    continue
+                touched += 1
+                d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
+                if d != 0:
+                    ch, sat = _saturating_add(target, a, b, d, limit)
+                    written += 1
+                    changed += ch
+                    sats += sat
+    rng[1] = np.uint64(ctr)
+    tally[0] = written
+    tally[1] = changed
+    tally[2] = sats
+    tally[3] = ctr - ctr0
+    return touched
+
+
+@njit(cache=True)
+def fixed_outer_update(state, post, pre, lr, defer):
+    m = state.mantissa
+    p = state.params
+    rows, cols = m.shape
+    c = state.counters
+    c[OUTER_UPDATES] += 1
+    lr_m, lr_e = lr_mantissa(lr, p[P_LR_BITS])
+    rf = state.xq
+    cq = state.yq
+    e_p = quantize_vector(post, rows, p[P_ACT_QMAX], rf)
+    e_q = quantize_vector(pre, cols, p[P_ACT_QMAX], cq)
+    if lr_m == 0:
+        return
+    top_r = np.int64(0)
+    for i in range(rows):
+        rf[i] *= lr_m  # row factor lr_m m_post[i]
+        top_r = max(top_r, abs(rf[i]))
+    top = top_r * p[P_ACT_QMAX]
+    tally = state.tally
+    mode = p[P_ROUNDING]
+    # P is in units of 2^(lr_e + e_p + e_q); the target's unit is 2^(e_w - F) or 2^e_w
+    if defer:
+        k = p[P_EXP] - p[P_FRAC] - (lr_e + e_p + e_q)
+        touched = _add_outer(state.acc, p[P_ACC_MAX], rf, cq, rows, cols, k, top, mode,
+                             state.rng, tally)
+        c[ACC_WRITES] += tally[0]
+        c[ACC_SATURATIONS] += tally[2]
+        c[BYTES_READ] += tally[0] * state.acc.itemsize
+        c[BYTES_WRITTEN] += tally[0] * state.acc.itemsize
+    else:
+        k = p[P_EXP] - (lr_e + e_p + e_q)
+        touched = _add_outer(m, p[P_QMAX], rf, cq, rows, cols, k, top, mode, state.rng,
+                             tally)
+        c[WEIGHT_READS] += tally[0]
+        c[WEIGHT_WRITES] += tally[0]
+        c[CELLS_CHANGED] += tally[1]
+        c[SATURATIONS] += tally[2]
+        c[BYTES_READ] += tally[0] * m.itemsize
+        c[BYTES_WRITTEN] += tally[0] * m.itemsize
+    c[UPDATE_MACS] += touched
+    c[RNG_DRAWS] += tally[3]
+    if tally[2] and p[P_STRICT]:
+        raise SaturationError("fixed-point value saturated (strict mode): the update was "
+                              "clipped and the array is left as it is")
+
+
+@njit(cache=True)
+def fixed_commit(state):
+    m = state.mantissa
+    acc = state.acc
+    p = state.params
+    rows, cols = m.shape
+    frac = p[P_FRAC]
+    mode = p[P_ROUNDING]
+    qmax = p[P_QMAX]
+    strict = p[P_STRICT] != 0
+    key = state.rng[0]
+    ctr = np.int64(state.rng[1])
+    cleared = 0
+    written = 0
+    changed = 0
+    sats = 0
+    draws = 0
+    for i in range(rows):
+        for j in range(cols):
+            a = np.int64(acc[i, j])
+            if a == 0:
+                continue
+            acc[i, j] = 0
+            cleared += 1
+            d, drew = shift_round(a, frac, mode, key, ctr)
+            ctr += drew
+            draws += drew
+            if d == 0:
+                continue
+            old = np.int64(m[i, j])
+            new, sat = saturate(old + d, qmax)
+            sats += sat
+            m[i, j] = new
+            written += 1
+            changed += new != old
+    state.rng[1] = np.uint64(ctr)
+    c = state.counters
+    c[COMMITS] += 1
+    c[WEIGHT_READS] += written
+    c[WEIGHT_WRITES] += written
+    c[CELLS_CHANGED] += changed
+    c[SATURATIONS] += sats
+    c[RNG_DRAWS] += draws
+    c[BYTES_READ] += rows * cols * acc.itemsize + written * m.itemsize
+    c[BYTES_WRITTEN] += cleared * acc.itemsize + written * m.itemsize
+    if sats and strict:
+        raise SaturationError("fixed-point weight saturated at commit (strict mode): the "
+                              "weights were clipped and the array is left as it is")
+
+
+@njit(cache=True, inline="always")
+def fixed_sigmoid(state, z, out):
+    for i in range(z.shape[0]):
+        out[i] = sigmoid_lut(z[i])

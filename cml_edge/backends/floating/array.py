@@ -1,0 +1,66 @@
+"""The float reference synaptic array: W stored as float64 (``float``) or float32 (``float32``)."""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.dispatch import Kernels, register
+from cml_edge.backends.floating import kernels as kern
+from cml_edge.errors import InputError
+
+
+class FloatState(NamedTuple):
+    W: np.ndarray  # (rows, cols) weights, float64 or float32
+    acc: np.ndarray  # (rows, cols) update accumulated since the last commit
+    buf: np.ndarray  # (max(rows, cols),) accumulators of a read, in the storage dtype
+    counters: np.ndarray  # int64[N_COUNTERS]
+
+
+register(FloatState, Kernels(kern.float_matvec, kern.float_rmatvec, kern.float_outer_update,
+                             kern.float_commit, kern.float_sigmoid))
+
+_DTYPES = {"float64": np.float64, "float32": np.float32}
+
+
+def _laid_out(W: np.ndarray) -> np.ndarray:
+    """A copy of W column-major if tall, row-major if wide (see the kernels' docstring)."""
+    return np.array(W, order="F" if W.shape[0] >= W.shape[1] else "C", copy=True)
+
+
+class FloatArray(SynapticArray):
+    """Exact floating-point weights: the reference every device array is compared with."""
+
+    name = "float"
+    State = FloatState
+    counter_names = (
+        "matvecs", "rmatvecs", "macs", "weight_reads", "outer_updates", "acc_writes",
+        "weight_writes", "cells_changed", "commits", "bytes_read", "bytes_written",
+    )
+    assert len(counter_names) == kern.N_COUNTERS
+
+    @classmethod
+    def from_float(cls, W: np.ndarray, *, seed: int = 0, index: int = 0,
+                   dtype: str = "float64") -> FloatArray:
+        if dtype not in _DTYPES:
+            raise InputError(f"dtype {dtype!r} is not one of {', '.join(_DTYPES)}")
+        W = _laid_out(np.asarray(W, dtype=_DTYPES[dtype]))
+        return cls(FloatState(W, np.zeros_like(W), np.zeros(max(W.shape), W.dtype),
+                              np.zeros(kern.N_COUNTERS, np.int64)))
+
+    @classmethod
+    def _restore(cls, state: FloatState, options: dict[str, Any]) -> FloatArray:
+        return cls(state._replace(W=_laid_out(state.W), acc=_laid_out(state.acc)))
+
+    def options(self) -> dict[str, Any]:
+        return {"dtype": self.state.W.dtype.name}
+
+    def to_float(self) -> np.ndarray:
+        return self.state.W.astype(np.float64)
+
+    @property
+    def supports_factored(self) -> bool:
+        """The exact factored fast path (cml_edge.grid.training) needs float64 weights."""
+        return self.state.W.dtype == np.float64

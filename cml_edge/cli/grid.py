@@ -1,0 +1,288 @@
+"""``cml-edge train | evaluate | navigate | emulate``: the CML on the grid (paper 2.1-3.4)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__
+from cml_edge.cli.args import (
+    Progress,
+    add_backend,
+    arena_size,
+    backend_options,
+    command_line,
+    finite_float,
+    nonneg_int,
+    positive_int,
+)
+from cml_edge.core.cml import CML, UTILITIES, CMLConfig
+from cml_edge.core.learning import SCHEDULES
+from cml_edge.errors import InputError
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import evaluate_model, run_protocol
+from cml_edge.grid.exploration import EXPLORATIONS
+from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances
+from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
+from cml_edge.grid.training import PATHS, TrainConfig, train
+from cml_edge.protocol import EVAL_SEED
+from cml_edge.storage import atomic_write, load_model, save_model
+
+
+def _add_training(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--arena", type=arena_size, default=30, help="arena side (default 30)")
+    p.add_argument("--walks", type=positive_int, default=100, help="exploration walks (100)")
+    p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")
+    p.add_argument("--explore", choices=EXPLORATIONS, default="random",
+                   help="exploration strategy (random)")
+    p.add_argument("--schedule", choices=SCHEDULES, default="walk",
+                   help="walk: updates summed over a walk, applied at its end (the paper); "
+                        "step: applied in place every step")
+    p.add_argument("--utility", choices=UTILITIES, default="normalized",
+                   help="planning utility: W_v columns normalised (default) or raw")
+    p.add_argument("--path", choices=PATHS, default=None,
+                   help="compute path: factored (float fast path), direct (compiled, through "
+                        "the array), reference (plain Python); default factored for float "
+                        "with the walk schedule, else direct")
+
+
+def _add_eval(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--obstacles", type=nonneg_int, default=0,
+                   help="point obstacles placed at evaluation only (0)")
+    p.add_argument("--trials", type=positive_int, default=100, help="(start, goal) pairs (100)")
+    p.add_argument("--max-steps", type=positive_int, default=None,
+                   help="planning step budget (100; with --map: max(100, ceil(100 x side / "
+                        "30)))")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def _add_planner(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--planner", choices=PLANNERS, default="paper",
+                   help="paper: WTA over utility x affordance (the paper's); escape: the "
+                        "paper's WTA plus a reactive escape when it would revisit a cell "
+                        "(boundary following, LRTA* fallback; see cml_edge.grid.planning)")
+
+
+def _add_map(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--map", default=None, metavar="FILE",
+                   help="plan on a MovingAI .map file (or a shipped map: rooms, utrap, "
+                        "maze); the CML never sees it in training")
+    p.add_argument("--scen", default=None, metavar="FILE",
+                   help="MovingAI .scen file: its (start, goal) problems replace the drawn "
+                        "pairs (needs --map)")
+
+
+def _load_map_args(args: argparse.Namespace):
+    """(GridMap, Pairs or None) of --map / --scen, or (None, None); checks the options."""
+    from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs
+
+    if getattr(args, "scen", None) and not args.map:
+        raise InputError("--scen needs --map")
+    if not args.map:
+        return None, None
+    if getattr(args, "obstacles", 0):
+        raise InputError(f"--obstacles {args.obstacles} cannot be combined with --map (the map "
+                         f"is the evaluation arena)")
+    grid = load_map(resolve_map(args.map))
+    pairs = None
+    if getattr(args, "scen", None):
+        pairs = scenario_pairs(grid, load_scen(args.scen), args.scen)
+    return grid, pairs
+
+
+def _budget(args: argparse.Namespace, side: int, on_map: bool) -> int:
+    """--max-steps, or by default 100 (the paper's) and step_budget(side) on a map."""
+    from cml_edge.grid.maps import step_budget
+
+    if args.max_steps is not None:
+        return args.max_steps
+    return step_budget(side) if on_map else MAX_STEPS
+
+
+def add_parsers(sub) -> None:
+    """The grid commands."""
+    p = sub.add_parser("train", help="train one CML and save it")
+    _add_training(p)
+    add_backend(p)
+    p.add_argument("--seed", type=nonneg_int, default=0, help="model seed (0)")
+    p.add_argument("--out", required=True, help="model file to write (.npz)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_train)
+
+    p = sub.add_parser("evaluate", help="evaluate a saved model on fixed (start, goal) pairs")
+    p.add_argument("model", help="model file (.npz)")
+    p.add_argument("--arena", type=arena_size, default=None,
+                   help="arena side (default: the training arena)")
+    _add_eval(p)
+    p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED,
+                   help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
+    p.add_argument("--path", choices=PATHS, default=None, help="compute path (see train)")
+    _add_planner(p)
+    _add_map(p)
+    p.set_defaults(run=cmd_evaluate)
+
+    p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
+    p.add_argument("model", help="model file (.npz)")
+    p.add_argument("--start", type=int, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--goal", type=int, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--arena", type=arena_size, default=None,
+                   help="arena side (default: the training arena)")
+    p.add_argument("--obstacles", type=nonneg_int, default=0, help="point obstacles (0)")
+    p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED, help="obstacle seed")
+    p.add_argument("--max-steps", type=positive_int, default=None,
+                   help="step budget (100; with --map: max(100, ceil(100 x side / 30)))")
+    _add_planner(p)
+    _add_map(p)
+    p.add_argument("--plot", help="write a PNG of the arena and the path")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_navigate)
+
+    p = sub.add_parser("emulate", help="train and evaluate models on a synaptic array "
+                       "(the evaluation protocol)")
+    _add_training(p)
+    add_backend(p)
+    _add_eval(p)
+    p.add_argument("--seeds", type=positive_int, default=10, help="models, seeds 0..N-1 (10)")
+    p.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
+                   help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
+    p.add_argument("--drift-time", type=finite_float, default=0.0, metavar="T",
+                   help="seconds between the end of training and evaluation; arrays that "
+                        "drift (crossbar) apply it (0)")
+    p.add_argument("--out", help="also write the JSON result to this file")
+    _add_planner(p)
+    _add_map(p)
+    p.set_defaults(run=cmd_emulate)
+
+
+def _default_path(backend: str, schedule: str, path: str | None) -> str:
+    if path is not None:
+        return path
+    factored_ok = backend == "float" and schedule == "walk"
+    return "factored" if factored_ok else "direct"
+
+
+def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    options = backend_options(args)
+    path = _default_path(args.backend, args.schedule, args.path)
+    config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    cml = CML.create(CMLConfig.for_arena(args.arena, utility=args.utility), args.backend,
+                     args.seed, **options)
+    arena = GridArena.empty(args.arena)
+    t0 = time.perf_counter()
+    bar = Progress("train")
+    errors = train(cml, arena, config, args.seed, path=path,
+                   on_epoch=lambda done: bar(done, config.walks))
+    record = {"arena": args.arena, "walks": args.walks, "steps": args.steps,
+              "explore": args.explore, "schedule": args.schedule, "seed": args.seed,
+              "path": path, "backend_options": options, "train_error": errors.tolist(),
+              "wall_time_s": time.perf_counter() - t0, "cml_edge_version": __version__,
+              "command": command_line()}
+    save_model(args.out, cml, record)
+    out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
+        "arena", "walks", "steps", "explore", "schedule", "seed", "path", "wall_time_s")},
+        "final_train_error": float(errors[-1])}
+    if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
+        out["counters"] = cml.counters()
+    return out
+
+
+def _load(path: str) -> tuple[CML, dict[str, Any]]:
+    return load_model(path)
+
+
+def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
+    size = args.arena if args.arena is not None else int(record.get("arena", 30))
+    if args.obstacles:
+        return GridArena.with_obstacles(size, args.obstacles, args.seed)
+    return GridArena.empty(size)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    grid, scen_pairs = _load_map_args(args)
+    if grid is not None and args.arena is not None:
+        raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
+                         f"the arena)")
+    cml, record = _load(args.model)
+    arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
+    path = _default_path(cml.backend, "walk", args.path)
+    budget = _budget(args, arena.size, grid is not None)
+    result = evaluate_model(cml, arena, pairs, path=path, max_steps=budget,
+                            planner=args.planner)
+    out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
+           "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
+           "path": path, "planner": args.planner, "max_steps": budget}
+    if grid is not None:
+        out.update({"map": args.map, "scen": args.scen})
+    return out
+
+
+def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
+    if args.scen:
+        raise InputError("--scen is not used by navigate (give --start and --goal)")
+    grid, _ = _load_map_args(args)
+    if grid is not None and args.arena is not None:
+        raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
+                         f"the arena)")
+    cml, record = _load(args.model)
+    arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    for name, pos in (("start", args.start), ("goal", args.goal)):
+        if not arena.contains(pos):
+            raise InputError(f"--{name} {pos[0]} {pos[1]} is off the {arena.size} x "
+                             f"{arena.size} arena (allowed: 0..{arena.size - 1})")
+        if not arena.is_free(pos):
+            raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
+    starts, goals = np.array([args.start]), np.array([args.goal])
+    res = plan(cml, arena, starts, goals, max_steps=_budget(args, arena.size, grid is not None),
+               path=_default_path(cml.backend, "walk", None), planner=args.planner)
+    steps = int(res.steps[0])
+    trajectory = res.paths[0, : steps + 1]
+    pairs = Pairs(starts, goals, np.abs(starts - goals).max(1),
+                  geodesic_distances(arena, starts, goals))
+    final = res.final[0]
+    out = {"start": list(args.start), "goal": list(args.goal), "final": final.tolist(),
+           "steps": steps, "reached": bool((final == goals[0]).all()),
+           "e_pos": float(np.linalg.norm(final - goals[0])),
+           "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
+           "planner": args.planner, "path": trajectory.tolist()}
+    if args.plot:
+        from cml_edge.plots import plot_navigation
+
+        plot_navigation(args.plot, arena, trajectory, args.start, args.goal)
+        out["plot"] = args.plot
+    return out
+
+
+def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
+    if args.drift_time < 0:
+        raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
+    options = backend_options(args)
+    grid, scen_pairs = _load_map_args(args)
+    size = args.arena
+    if grid is not None:
+        if args.arena not in (30, grid.side):  # 30: the default, replaced by the map's side
+            raise InputError(f"--arena {args.arena} conflicts with --map ({grid.side} x "
+                             f"{grid.side}); leave --arena out")
+        size = grid.side
+    config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    path = args.path or "direct"
+    result = run_protocol(args.backend, range(args.seeds), args.trials, size,
+                          args.obstacles, config,
+                          CMLConfig.for_arena(size, utility=args.utility),
+                          eval_seed=args.eval_seed, path=path, idle_s=args.drift_time,
+                          progress=Progress(f"emulate {args.backend}"),
+                          planner=args.planner,
+                          max_steps=_budget(args, size, grid is not None),
+                          eval_arena=grid.arena() if grid is not None else None,
+                          pairs=scen_pairs, **options)
+    if grid is not None:
+        result.update({"map": args.map, "scen": args.scen})
+    result["command"] = command_line()
+    result["cml_edge_version"] = __version__
+    if args.out:
+        atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
+    return result

@@ -1,0 +1,268 @@
+"""``cml-edge robot train | evaluate | navigate``: the continuous wheeled robot (paper 2.5, 3.5)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from cml_edge import __version__
+from cml_edge.backends import backend_spec
+from cml_edge.cli.args import (
+    Progress,
+    command_line,
+    finite_float,
+    nonneg_int,
+    positive_float,
+    positive_int,
+)
+from cml_edge.core.cml import UTILITIES, CMLConfig
+from cml_edge.core.learning import SCHEDULES
+from cml_edge.errors import InputError
+from cml_edge.protocol import EVAL_SEED
+from cml_edge.robot.cml import (
+    BASE_POSE,
+    GOAL_HEADINGS,
+    GOAL_RADIUS,
+    MAX_ACTIONS,
+    OBSERVATIONS,
+    PATHS,
+    STOPS,
+    RobotCMLSettings,
+    RobotTrainConfig,
+    draw_goals,
+    plan_robot,
+    summarize_robot,
+)
+from cml_edge.robot.models import (
+    asdict_options,
+    evaluate_models,
+    load_robot_models,
+    plot_robot_runs,
+    save_robot_models,
+    train_models,
+)
+from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
+
+
+def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
+    tail = "default kinematic" if default else "default: the one the model was trained on"
+    p.add_argument("--sim", choices=SIMS, default=default,
+                   help=f"kinematic (exact arcs, compiled) or mujoco (physics; the robot extra); "
+                        f"{tail}")
+    g = p.add_argument_group("mujoco options")
+    for f, helptext in (("timestep", "physics step, s"), ("friction", "wheel-floor friction"),
+                        ("kv", "wheel velocity servo gain"), ("torque", "motor torque limit")):
+        g.add_argument(f"--mujoco-{f}", type=positive_float, default=None, metavar="X",
+                       help=f"{helptext} (default {getattr(MujocoOptions(), f)})")
+
+
+def _add_planning(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--observation", choices=OBSERVATIONS, default=None,
+                   help="check the model's observation (it is fixed at training)")
+    p.add_argument("--goal-heading", choices=GOAL_HEADINGS, default=None,
+                   help="heading of o* (default: the model's, bearing unless trained otherwise)")
+    p.add_argument("--utility", choices=UTILITIES, default=None,
+                   help="planning utility (default: the model's)")
+    p.add_argument("--stop", choices=STOPS, default="action",
+                   help="check the goal circle after each action (the default) or at every "
+                        "32 ms simulation step")
+    p.add_argument("--max-actions", type=positive_int, default=MAX_ACTIONS,
+                   help=f"action budget ({MAX_ACTIONS})")
+    p.add_argument("--radius", type=positive_float, default=GOAL_RADIUS,
+                   help=f"goal radius in m ({GOAL_RADIUS})")
+    p.add_argument("--base", type=finite_float, nargs=3, metavar=("X", "Y", "THETA"),
+                   default=list(BASE_POSE), help="start pose (default 2 2 pi/4)")
+    p.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
+                   help=f"seed of the random goals ({EVAL_SEED})")
+    p.add_argument("--path", choices=PATHS, default="direct",
+                   help="compiled loop (direct) or plain-Python reference")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_parsers(subparsers) -> None:
+    """``robot train|evaluate|navigate``."""
+    p = subparsers.add_parser("robot", help="the continuous wheeled robot (paper 2.5, 3.5)")
+    p.set_defaults(run=cmd_robot)
+    sub = p.add_subparsers(dest="robot_command", required=True, parser_class=type(p))
+
+    t = sub.add_parser("train", help="train CMLs by random walks of the robot and save them")
+    _add_sim(t, "kinematic")
+    t.add_argument("--observation", choices=OBSERVATIONS, default="heading",
+                   help="xy: the paper's (x, y); heading: (x, y, cos, sin) read in the "
+                        "heading's frame (default); heading-world: the same in the world frame")
+    t.add_argument("--goal-heading", choices=GOAL_HEADINGS, default="bearing",
+                   help="default heading of o* for planning (bearing)")
+    t.add_argument("--heading-scale", type=positive_float, default=None,
+                   help="weight h of the heading components (default 1/30, as positions)")
+    t.add_argument("--utility", choices=UTILITIES, default="raw",
+                   help="planning utility stored with the model (raw)")
+    t.add_argument("--walks", type=positive_int, default=RobotTrainConfig.walks,
+                   help=f"exploration walks ({RobotTrainConfig.walks})")
+    t.add_argument("--steps", type=positive_int, default=RobotTrainConfig.steps,
+                   help=f"actions per walk ({RobotTrainConfig.steps})")
+    t.add_argument("--schedule", choices=SCHEDULES, default="walk",
+                   help="updates applied at the end of each walk (walk) or at once (step)")
+    t.add_argument("--backend", default="float", help="synaptic array (float)")
+    t.add_argument("--seed", type=nonneg_int, default=0, help="first model seed (0)")
+    t.add_argument("--seeds", type=positive_int, default=1,
+                   help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
+    t.add_argument("--path", choices=PATHS, default="direct",
+                   help="compiled loop (direct) or plain-Python reference")
+    t.add_argument("--out", required=True, help="model file to write (.npz)")
+    t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+    e = sub.add_parser("evaluate", help="drive to random goals from the base; the issue's "
+                       "metrics")
+    e.add_argument("model", nargs="+", help="robot model file(s) (.npz); the models of "
+                   "several files (trained alike) are pooled")
+    _add_sim(e, None)
+    e.add_argument("--trials", type=positive_int, default=100, help="random goals (100)")
+    e.add_argument("--seeds", type=positive_int, default=None,
+                   help="use the first N models (default all)")
+    _add_planning(e)
+
+    n = sub.add_parser("navigate", help="drive to a few goals and plot them (Figure 9)")
+    n.add_argument("model", help="robot model file (.npz)")
+    _add_sim(n, None)
+    n.add_argument("--goal", type=finite_float, nargs=2, metavar=("X", "Y"), default=None,
+                   help="one goal (default: --goals random goals)")
+    n.add_argument("--goals", type=positive_int, default=10,
+                   help="random goals from the evaluation seed (10)")
+    n.add_argument("--model-index", type=nonneg_int, default=0,
+                   help="which model of the file drives (0)")
+    n.add_argument("--plot", default=None, help="write a PNG like the paper's Figure 9")
+    _add_planning(n)
+
+
+def _mujoco_options(args: argparse.Namespace) -> dict[str, float]:
+    return {f: getattr(args, f"mujoco_{f}") for f in ("timestep", "friction", "kv", "torque")
+            if getattr(args, f"mujoco_{f}", None) is not None}
+
+
+def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
+              stored: dict[str, float] | None = None) -> RobotSim:
+    options = {**(stored or {}), **_mujoco_options(args)} if name == "mujoco" else {}
+    if name != "mujoco" and _mujoco_options(args):
+        raise InputError("--mujoco-* options need --sim mujoco")
+    return make_sim(name, robot, **options)
+
+
+def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    backend_spec(args.backend)
+    robot = RobotConfig()
+    settings = RobotCMLSettings(args.observation, args.goal_heading,
+                                args.heading_scale or RobotCMLSettings.heading_scale)
+    config = RobotTrainConfig(args.walks, args.steps, args.schedule)
+    sim = _make_sim(args.sim, robot, args)
+    seeds = list(range(args.seed, args.seed + args.seeds))
+    cmls, record = train_models(seeds, sim, settings, config,
+                                settings.cml_config(utility=args.utility), args.backend,
+                                args.path, Progress("robot train"))
+    record.update({"command": command_line(),
+                   "cml_edge_version": __version__})
+    mujoco = asdict_options(sim) if args.sim == "mujoco" else None
+    save_robot_models(args.out, cmls, {"robot": robot.to_dict(), "settings": settings.to_dict(),
+                                       "sim": args.sim, "mujoco": mujoco, "training": record})
+    return {"model": args.out, "sim": args.sim, "observation": settings.observation,
+            "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
+            "utility": args.utility, "backend": args.backend, "walks": config.walks,
+            "steps": config.steps, "schedule": config.schedule, "seeds": seeds,
+            "path": args.path, "eq3_gain": record["eq3_gain"],
+            "final_train_error": [e[-1] for e in record["train_error"]],
+            "wall_time_s": record["wall_time_s"], "actions_per_s": record["actions_per_s"],
+            "command": record["command"], "cml_edge_version": __version__}
+
+
+def _load_for_planning(args: argparse.Namespace):
+    files = args.model if isinstance(args.model, list) else [args.model]
+    cmls, meta = load_robot_models(files[0])
+    for other in files[1:]:
+        more, m = load_robot_models(other)
+        for key in ("settings", "robot", "sim", "mujoco", "config", "backend"):
+            if m.get(key) != meta.get(key):
+                raise InputError(f"{other} differs from {files[0]} in its {key}; only models "
+                                 f"trained alike are pooled")
+        cmls += more
+        meta["training"] = {**meta["training"], "seeds": meta["training"].get("seeds", []) +
+                            m["training"].get("seeds", [])}
+    settings = RobotCMLSettings.from_dict(meta["settings"])
+    if args.observation is not None and args.observation != settings.observation:
+        raise InputError(f"--observation {args.observation}: the model was trained with the "
+                         f"{settings.observation} observation")
+    if args.goal_heading is not None:
+        settings = RobotCMLSettings(**{**settings.to_dict(), "goal_heading": args.goal_heading})
+    if args.utility is not None:
+        for cml in cmls:
+            cml.config = CMLConfig(**{**cml.config.to_dict(), "utility": args.utility})
+    robot = RobotConfig.from_dict(meta["robot"])
+    sim_name = args.sim or meta["sim"]
+    sim = _make_sim(sim_name, robot, args, meta.get("mujoco") if meta["sim"] == "mujoco" else None)
+    base = tuple(float(b) for b in args.base)
+    if not (robot.lo <= base[0] <= robot.hi and robot.lo <= base[1] <= robot.hi):
+        raise InputError(f"--base {base[0]:g} {base[1]:g} puts the robot outside the arena "
+                         f"(allowed: {robot.lo:g}..{robot.hi:g} m)")
+    return cmls, meta, settings, robot, sim, sim_name, base
+
+
+def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, Any]:
+    return {"model": args.model, "sim": sim_name, "trained_on": meta["sim"],
+            "observation": settings.observation, "goal_heading": settings.goal_heading,
+            "heading_scale": settings.heading_scale, "utility": cmls[0].config.utility,
+            "backend": cmls[0].backend, "stop": args.stop, "radius": args.radius,
+            "max_actions": args.max_actions, "base": list(base), "eval_seed": args.eval_seed,
+            "path": args.path, "training_walks": meta["training"].get("walks"),
+            "training_steps": meta["training"].get("steps"),
+            "command": command_line(), "cml_edge_version": __version__}
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
+    cmls, meta, settings, robot, sim, sim_name, base = _load_for_planning(args)
+    if args.seeds is not None:
+        if args.seeds > len(cmls):
+            raise InputError(f"--seeds {args.seeds}: the model file holds {len(cmls)} models")
+        cmls = cmls[: args.seeds]
+    goals = draw_goals(robot, args.trials, args.eval_seed)
+    result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions, args.radius,
+                             args.stop, args.path, Progress(f"robot evaluate ({sim_name})"))
+    seeds = meta["training"].get("seeds", list(range(len(cmls))))[: len(cmls)]
+    for entry, seed in zip(result["per_seed"], seeds):
+        entry["seed"] = seed
+    return {**_planning_record(args, meta, settings, cmls, sim_name, base), **result,
+            "seed_list": seeds}
+
+
+def _cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
+    cmls, meta, settings, robot, sim, sim_name, base = _load_for_planning(args)
+    if args.model_index >= len(cmls):
+        raise InputError(f"--model-index {args.model_index}: the model file holds "
+                         f"{len(cmls)} models (allowed: 0..{len(cmls) - 1})")
+    if args.goal is not None:
+        gx, gy = args.goal
+        if not (0.0 <= gx <= robot.arena and 0.0 <= gy <= robot.arena):
+            raise InputError(f"--goal {gx:g} {gy:g} is off the {robot.arena:g} x {robot.arena:g}"
+                             f" m arena (allowed: 0..{robot.arena:g})")
+        goals = np.array([[gx, gy]])
+    else:
+        goals = draw_goals(robot, args.goals, args.eval_seed)
+    starts = np.tile(np.asarray(base), (len(goals), 1))
+    res = plan_robot(cmls[args.model_index], sim, settings, starts, goals, args.max_actions,
+                     args.radius, args.path, keep_paths=True, stop=args.stop)
+    out = {**_planning_record(args, meta, settings, cmls, sim_name, base),
+           "model_index": args.model_index, **summarize_robot(res, starts, goals),
+           "runs": {"goals": goals.tolist(), "reached": res.reached.tolist(),
+                    "actions": res.steps.tolist(), "final": res.final.tolist(),
+                    "path_length": res.length.tolist()}}
+    if args.plot:
+        plot_robot_runs(args.plot, robot, res.paths, goals, res.reached, base, args.radius,
+                        title=f"CML ({settings.observation} observation, {sim_name}): "
+                              f"{int(res.reached.sum())}/{len(goals)} goals reached")
+        out["plot"] = args.plot
+    return out
+
+
+def cmd_robot(args: argparse.Namespace) -> dict[str, Any]:
+    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises ValueError."""
+    commands = {"train": _cmd_train, "evaluate": _cmd_evaluate, "navigate": _cmd_navigate}
+    return commands[args.robot_command](args)

@@ -1,0 +1,116 @@
+"""``cml-edge sweep | report | bench``: experiments, the hardware-budget report, speed."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from cml_edge.backends import BACKENDS, backend_spec
+from cml_edge.cli.args import Progress, command_line, positive_int
+from cml_edge.errors import InputError
+from cml_edge.grid.planning import PLANNERS
+from cml_edge.robot.sim import SIMS
+
+
+def add_parsers(sub) -> None:
+    """The experiment, report and benchmark commands."""
+    p = sub.add_parser("sweep", help="run an experiment's (configuration x seed) tasks on a "
+                       "local process pool or a Dask cluster; resumable")
+    p.add_argument("experiment", help="convergence, hyperparams, exploration, generalization, "
+                   "obstacles, maps or backends")
+    p.add_argument("--out", default=None, help="folder (default runs/experiments/EXPERIMENT)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on this Dask distributed scheduler (e.g. tcp://host:8786; needs "
+                        "the distributed extra)")
+    p.add_argument("--seeds", type=positive_int, default=10, help="model seeds 0..N-1 (10)")
+    p.add_argument("--planner", choices=PLANNERS, default=None,
+                   help="only this planner (default: the experiment's: both for obstacles "
+                        "and maps, paper elsewhere)")
+    p.add_argument("--map", default=None, metavar="FILE",
+                   help="a MovingAI .map file (or shipped map name): maps and exploration "
+                        "experiments")
+    p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_sweep)
+
+    p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
+                       "figures)")
+    p.add_argument("--out", default="hw_reports/latest",
+                   help="report folder (default hw_reports/latest)")
+    p.add_argument("--quick", action="store_true",
+                   help="few seeds and trials: minutes instead of the full protocol")
+    p.add_argument("--dqn-results", default=None, metavar="FILE",
+                   help="DQN baseline results written by 'cml-edge dqn' (default: the "
+                        "repository's hw_reports/baselines/dqn_results.json)")
+    p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
+    p.set_defaults(run=cmd_report)
+
+    p = sub.add_parser("bench", help="time the training and planning loops")
+    p.add_argument("--backends", nargs="+", default=None,
+                   help="backends to time (default: all registered)")
+    p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
+    p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
+                   help="also time the wheeled robot on these simulators (kinematic, mujoco)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_bench)
+
+
+def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.report import build_report, write_report
+    from cml_edge.report.build import DQN_RESULTS
+
+    def progress(message: str) -> None:
+        if sys.stderr.isatty():
+            print(f"report: {message}", file=sys.stderr, flush=True)
+
+    if args.dqn_results is not None and not Path(args.dqn_results).is_file():
+        raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
+    report = build_report(quick=args.quick, command=command_line(),
+                          progress=progress, dqn_results=args.dqn_results or DQN_RESULTS)
+    folder = write_report(report, args.out)
+    if args.json:
+        return report
+    return {"report": str(folder / "report.md"), "systems": len(report["systems"]),
+            "wall_time_s": report["wall_time_s"]}
+
+
+def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.bench import run_bench
+
+    names = args.backends or sorted(BACKENDS)
+    for name in names:
+        backend_spec(name)
+    result = run_bench(names, repeats=args.repeats, progress=Progress("bench"))
+    if args.robot:
+        from cml_edge.bench import bench_robot
+
+        result["robot"] = bench_robot(args.robot, args.repeats)
+    return result
+
+
+def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge import experiments
+    from cml_edge.experiments.common import markdown_table, run_experiment
+
+    module = experiments.get(args.experiment)
+    if args.scen and not args.map:
+        raise InputError("--scen needs --map")
+    if args.map:  # fail on a bad file now, before any task runs
+        from cml_edge.grid.maps import load_map, load_scen, resolve_map
+
+        load_map(resolve_map(args.map))
+        if args.scen:
+            load_scen(args.scen)
+    summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
+                             progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
+                             planner=args.planner, map=args.map, scen=args.scen)
+    summary["command"] = command_line()
+    if not args.json:
+        print(markdown_table(summary["rows"], module.COLUMNS))
+        print(f"results: {summary['out']}/results.json, results.csv, figure.png")
+        summary["_printed"] = True
+    return summary

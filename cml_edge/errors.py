@@ -1,0 +1,15 @@
+"""The one error class for bad input: a value a user gave (an option, a setting, a file)
+that is not allowed.
+
+Every validation in cml-edge raises :class:`InputError` (or a subclass: a bad model,
+map or results file, a saturation refused in strict mode) with one line naming the value
+and what is allowed; ``cml-edge`` prints that line and exits with status 2. Any other
+exception is a bug and is not disguised as bad input. It subclasses ``ValueError``, so
+code that catches ``ValueError`` keeps working.
+"""
+
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """A value that is not allowed; the message names it and what is allowed."""

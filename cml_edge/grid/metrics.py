@@ -1,0 +1,109 @@
+"""Evaluation metrics (paper 2.4.1) and the fixed (start, goal) pairs of the protocol.
+
+- e_pos = ||p_goal - p_final||_2 (Eq. 8);
+- path overhead lambda = steps / d_Ch(p_init, p_goal) (Eq. 9), over successful trials;
+- success: the final position is the goal;
+- with obstacles, also steps / geodesic (BFS) distance, and success over the pairs that
+  are connected at all.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cml_edge.errors import InputError
+from cml_edge.grid.arena import GridArena, chebyshev
+
+
+@dataclass(frozen=True)
+class Pairs:
+    """Evaluation (start, goal) pairs, with their Chebyshev and geodesic distances."""
+
+    starts: np.ndarray  # (n, 2)
+    goals: np.ndarray  # (n, 2)
+    chebyshev: np.ndarray  # (n,)
+    geodesic: np.ndarray  # (n,), -1 where the goal cannot be reached at all
+
+
+def draw_pairs(arena: GridArena, trials: int, seed: int) -> Pairs:
+    """``trials`` pairs of distinct free cells drawn uniformly from ``seed``.
+
+    Every method evaluated with the same arena, count and seed sees the same pairs.
+    """
+    if isinstance(trials, bool) or int(trials) != trials or trials < 1:
+        raise InputError(f"trials {trials!r} is not a positive integer")
+    free = np.argwhere(~arena.blocked)
+    if len(free) < 2:
+        raise InputError("the arena has fewer than two free cells")
+    rng = np.random.default_rng(seed)
+    starts = np.zeros((trials, 2), np.int64)
+    goals = np.zeros((trials, 2), np.int64)
+    for i in range(trials):
+        a, b = rng.choice(len(free), size=2, replace=False)
+        starts[i], goals[i] = free[a], free[b]
+    return Pairs(starts, goals, chebyshev(starts, goals), geodesic_distances(arena, starts, goals))
+
+
+def geodesic_distances(arena: GridArena, starts: np.ndarray, goals: np.ndarray) -> np.ndarray:
+    """BFS (8-connected) distance of each pair; -1 where not connected."""
+    if arena.n_obstacles == 0:
+        return chebyshev(starts, goals)
+    cache: dict[tuple[int, int], np.ndarray] = {}
+    out = np.zeros(len(starts), np.int64)
+    for i, (s, g) in enumerate(zip(starts, goals)):
+        key = (int(g[0]), int(g[1]))
+        if key not in cache:
+            cache[key] = arena.geodesic(key)  # 8 moves are symmetric: BFS from the goal
+        out[i] = cache[key][s[0], s[1]]
+    return out
+
+
+def e_pos(final: np.ndarray, goals: np.ndarray) -> np.ndarray:
+    """Eq. 8: Euclidean distance between goal and final position."""
+    return np.linalg.norm(np.asarray(goals, float) - np.asarray(final, float), axis=-1)
+
+
+def summarize(final: np.ndarray, steps: np.ndarray, pairs: Pairs) -> dict[str, float | int | None]:
+    """The protocol's metrics over one set of trials (JSON-ready; None where undefined)."""
+    err = e_pos(final, pairs.goals)
+    success = err == 0
+    overhead = steps[success] / pairs.chebyshev[success]
+    connected = pairs.geodesic > 0
+    geo_ok = success & connected
+    out = {
+        "trials": int(len(err)),
+        "success_rate": float(success.mean()),
+        "e_pos_mean": float(err.mean()),
+        "e_pos_median": float(np.median(err)),
+        "overhead_mean": _mean(overhead),
+        "overhead_median": _median(overhead),
+        "connected_pairs": int(connected.sum()),
+        "success_rate_connected": float(geo_ok.sum() / connected.sum()) if connected.any()
+        else None,
+        "overhead_geodesic_mean": _mean(steps[geo_ok] / pairs.geodesic[geo_ok]),
+    }
+    return out
+
+
+CONVERGENCE_TOL = 0.5  # cells: half a grid cell
+
+
+def convergence_index(values, tol: float = CONVERGENCE_TOL) -> int:
+    """First index of an evaluation curve from which it stays within ``tol`` of its last
+    value (the training-to-convergence point of the CML and the DQN alike)."""
+    v = np.asarray(values, dtype=float)
+    if len(v) == 0:
+        raise InputError("empty curve")
+    outside = np.flatnonzero(np.abs(v - v[-1]) > tol)
+    return int(outside[-1] + 1) if len(outside) else 0
+
+
+def _mean(x: np.ndarray) -> float | None:
+    """The mean, or None (JSON null) when there is nothing to average."""
+    return float(x.mean()) if len(x) else None
+
+
+def _median(x: np.ndarray) -> float | None:
+    return float(np.median(x)) if len(x) else None

@@ -1,0 +1,38 @@
+"""The fixed numbers of the evaluation protocol, in one place: the evaluation seed, the
+random streams, and the DQN's rewards.
+
+Every random draw of training, exploration, evaluation goals and device noise is
+``uniform(stream_key(seed, STREAM), counter)`` (:mod:`cml_edge.rng`), one stream per
+independent use, so that a draw depends only on (seed, stream, counter). Three draws
+use NumPy generators seeded from the same integers instead: the CML's initial weights
+(:meth:`cml_edge.core.cml.CML.create`, keyed ``[seed, STREAM_INIT]``), the obstacle
+cells of an arena (:meth:`cml_edge.grid.arena.GridArena.with_obstacles`) and the DQN
+baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
+"""
+
+from __future__ import annotations
+
+EVAL_SEED = 123
+"""Seed of the evaluation pairs, obstacles and robot goals: every method sees the same."""
+
+# random streams (one per independent use) --------------------------------------------------
+STREAM_WALK_START = 1
+"""The grid: the start cell of each training walk (counter: walk)."""
+STREAM_EXPLORE = 2
+"""The grid: exploration moves (counters 4n, 4n + 1, 4n + 2 at training step n)."""
+STREAM_INIT = 3
+"""The CML's initial weights (a NumPy generator keyed [seed, STREAM_INIT])."""
+STREAM_DEVICE = 16
+"""Device noise of array ``index`` (0: W_q, 1: W_k, 2: W_v) on stream STREAM_DEVICE + index."""
+STREAM_ROBOT_START = 48
+"""The robot: start pose of each training walk (counters 3w .. 3w + 2)."""
+STREAM_ROBOT_EXPLORE = 49
+"""The robot: exploration actions (counter w x steps + t)."""
+STREAM_ROBOT_GOALS = 50
+"""The robot: evaluation goals of the evaluation seed (counters 2i, 2i + 1)."""
+
+# the DQN baseline's rewards (paper Eqs. 6 and 7) ------------------------------------------
+REWARDS = ("simplified", "tailored")
+"""Eq. 6 (simplified) and Eq. 7 (tailored)."""
+R_GOAL = 100.0
+"""Eq. 7's reward for reaching the goal."""

@@ -1,0 +1,197 @@
+"""The continuous wheeled robot (paper 2.5, 3.5): model files, the protocol, figures, the CLI.
+
+The pieces live in :mod:`cml_edge.robot.sim` (arena, robot, kinematic and MuJoCo
+simulators) and :mod:`cml_edge.robot.cml` (observations, training, planning); this
+module puts them together for ``cml-edge robot train|evaluate|navigate``.
+
+Model files. One ``.npz`` (no pickles) holds the CMLs of one or more training seeds:
+``format`` ("cml-edge-robot-model"), ``format_version``, ``meta`` (JSON: the CML config,
+the backend, the robot config, the observation settings, the simulator and the training
+record) and each array's ``state_dict`` under ``m<i>/W_q/``, ``m<i>/W_k/``, ``m<i>/W_v/``.
+Loading checks all of it. Files are written under a temporary name and renamed.
+
+Protocol (issue 8): every model drives the robot from the base pose (2, 2) m facing the
+centre (bottom left) to the same ``trials`` goals, drawn uniformly on [0.5, 29.5]^2 from
+the evaluation seed (123); a trial succeeds when the robot ends an action within 0.25 m
+of its goal, within 100 actions (``--stop step`` checks at every 32 ms simulation step
+instead, so passing through the circle counts). Pooled over the models (one per training
+seed; ``evaluate`` pools several files trained alike): ``success_rate``, and over the
+successful trials ``mean_actions`` and ``path_ratio`` (length of the driven path, along
+the simulation steps, over the straight start-goal distance); e_pos (Eq. 8) over all.
+Speed (``actions_per_s``) is timed after a warm-up call, so it excludes compilation.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.errors import InputError
+from cml_edge.robot.cml import (
+    BASE_POSE,
+    GOAL_RADIUS,
+    MAX_ACTIONS,
+    RobotCMLSettings,
+    RobotPlanResult,
+    RobotTrainConfig,
+    plan_robot,
+    summarize_robot,
+    train_robot,
+)
+from cml_edge.robot.sim import SIMS, RobotConfig, RobotSim
+from cml_edge.storage import atomic_write, cml_arrays, cml_from_arrays, read_npz
+
+FORMAT = "cml-edge-robot-model"
+FORMAT_VERSION = 1
+
+
+class RobotModelError(InputError):
+    """A robot model file that is missing, corrupted, foreign or of another version."""
+
+
+# model files --------------------------------------------------------------------------
+def save_robot_models(path: str | Path, cmls: list[CML], meta: dict[str, Any]) -> None:
+    """Write the CMLs of several seeds and their shared ``meta`` (JSON-able) atomically."""
+    if not cmls:
+        raise InputError("no models to save")
+    arrays: dict[str, np.ndarray] = {
+        "format": np.array(FORMAT),
+        "format_version": np.array(FORMAT_VERSION),
+        "meta": np.array(json.dumps({**meta, "config": cmls[0].config.to_dict(),
+                                     "backend": cmls[0].backend, "n_models": len(cmls)},
+                                    sort_keys=True)),
+    }
+    for i, cml in enumerate(cmls):
+        arrays.update(cml_arrays(cml, f"m{i}/"))
+    atomic_write(path, lambda f: np.savez(f, **arrays))
+
+
+def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
+    """Load and validate a robot model file; returns its CMLs and its meta record."""
+    name = str(path)
+    data = read_npz(path, FORMAT, FORMAT_VERSION, RobotModelError,
+                    {"cml-edge-model": " (a grid model: use cml-edge evaluate)"})
+    try:
+        meta = json.loads(str(data["meta"]))
+        config = CMLConfig.from_dict(meta["config"])
+        settings = RobotCMLSettings.from_dict(meta["settings"])
+        RobotConfig.from_dict(meta["robot"])
+        if meta["sim"] not in SIMS:
+            raise InputError(f"unknown simulator {meta['sim']!r}")
+        if config.n_i != settings.n_i:
+            raise InputError(f"N_i = {config.n_i} does not fit the {settings.observation} "
+                             f"observation")
+        n = int(meta["n_models"])
+        if n < 1:
+            raise InputError(f"n_models {n} < 1")
+        cmls = [cml_from_arrays(data, config, meta["backend"], f"m{i}/") for i in range(n)]
+    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
+        raise RobotModelError(f"{name!r} is a corrupted robot model file: {exc}") from None
+    return cmls, meta
+
+
+# training and the protocol ----------------------------------------------------------------
+def train_models(seeds: list[int], sim: RobotSim, settings: RobotCMLSettings,
+                 config: RobotTrainConfig, cml_config: CMLConfig, backend: str = "float",
+                 path: str = "direct", progress=None) -> tuple[list[CML], dict[str, Any]]:
+    """Train one CML per seed on ``sim``; returns them and the training record."""
+    cmls, errors, gains = [], [], []
+    # compile first (a one-action walk on a throwaway CML), so the timing is the loop's
+    train_robot(CML.create(cml_config, backend, 0), sim, settings, RobotTrainConfig(1, 1), 0, path)
+    t0 = time.perf_counter()
+    total = len(seeds) * config.walks
+    for n, seed in enumerate(seeds):
+        cml = CML.create(cml_config, backend, seed)
+
+        def on_walk(done: int, n: int = n) -> None:
+            if progress is not None:
+                progress(n * config.walks + done, total)
+
+        info = train_robot(cml, sim, settings, config, seed, path=path, on_walk=on_walk)
+        cmls.append(cml)
+        errors.append(info["train_error"].tolist())
+        gains.append(info["eq3_gain"])
+    wall = time.perf_counter() - t0
+    record = {"walks": config.walks, "steps": config.steps, "schedule": config.schedule,
+              "seeds": [int(s) for s in seeds], "path": path, "train_error": errors,
+              "eq3_gain": gains, "wall_time_s": wall,
+              "actions_per_s": len(seeds) * config.walks * config.steps / max(wall, 1e-9)}
+    return cmls, record
+
+
+def evaluate_models(cmls: list[CML], sim: RobotSim, settings: RobotCMLSettings, goals: np.ndarray,
+                    base: tuple[float, float, float] = BASE_POSE,
+                    max_actions: int = MAX_ACTIONS, radius: float = GOAL_RADIUS,
+                    stop: str = "action", path: str = "direct",
+                    progress=None) -> dict[str, Any]:
+    """Drive each model from ``base`` to every goal; pooled and per-model metrics."""
+    starts = np.tile(np.asarray(base, dtype=np.float64), (len(goals), 1))
+    results: list[RobotPlanResult] = []
+    per_seed = []
+    plan_robot(cmls[0], sim, settings, starts[:1], goals[:1], 1, radius, path, stop=stop)  # compile
+    t0 = time.perf_counter()
+    for n, cml in enumerate(cmls):
+        res = plan_robot(cml, sim, settings, starts, goals, max_actions, radius, path, stop=stop)
+        results.append(res)
+        per_seed.append(summarize_robot(res, starts, goals))
+        if progress is not None:
+            progress(n + 1, len(cmls))
+    wall = time.perf_counter() - t0
+    pooled = RobotPlanResult(*(np.concatenate([getattr(r, f) for r in results]) for f in
+                               ("final", "steps", "reached", "length", "poses", "actions")))
+    all_starts = np.concatenate([starts] * len(cmls))
+    summary = summarize_robot(pooled, all_starts, np.concatenate([goals] * len(cmls)))
+    actions = int(pooled.steps.sum())
+    return {**summary, "seeds": len(cmls), "trials": int(len(goals)), "per_seed": per_seed,
+            "actions": actions, "wall_time_s": wall, "actions_per_s": actions / max(wall, 1e-9)}
+
+
+# figures ------------------------------------------------------------------------------
+def plot_robot_runs(out: str | Path, config: RobotConfig, trails: list[np.ndarray],
+                    goals: np.ndarray, reached: np.ndarray, base, radius: float = GOAL_RADIUS,
+                    title: str | None = None) -> None:
+    """A PNG like the paper's Figure 9: the arena, the base (bottom left), the goals (stars,
+    green when reached) with their 0.25 m circles, and the trajectories driven."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cml_edge.plots import save_png
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    S = config.arena
+    ax.add_patch(plt.Rectangle((0, 0), S, S, fill=False, linewidth=2, color="0.2"))
+    ax.set_xlim(-0.5, S + 0.5)
+    ax.set_ylim(-0.5, S + 0.5)
+    ax.set_aspect("equal")
+    ax.grid(color="0.92", linewidth=0.5)
+    colors = plt.get_cmap("tab10")
+    for i, (trail, goal, ok) in enumerate(zip(trails, goals, reached)):
+        c = colors(i % 10)
+        ax.plot(trail[:, 0], trail[:, 1], "-", color=c, linewidth=1.2)
+        ax.add_patch(plt.Circle(goal, radius, fill=False, color=c, linewidth=0.8))
+        ax.plot(*goal, "*", markersize=13, color="tab:green" if ok else "tab:red",
+                markeredgecolor="k", markeredgewidth=0.5)
+    ax.plot(base[0], base[1], "x", color="k", markersize=12, mew=3, label="base")
+    ax.plot([], [], "*", color="tab:green", markeredgecolor="k", label="goal reached")
+    ax.plot([], [], "*", color="tab:red", markeredgecolor="k", label="goal missed")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    n_ok = int(np.sum(reached))
+    ax.set_title(title or f"CML driving the robot: {n_ok}/{len(goals)} goals reached")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    save_png(fig, out)
+    plt.close(fig)
+
+
+def asdict_options(sim: RobotSim) -> dict[str, float] | None:
+    options = getattr(sim, "options", None)
+    return None if options is None else {f: getattr(options, f) for f in
+                                         ("timestep", "friction", "kv", "torque", "mass",
+                                          "com_x")}

@@ -1,0 +1,462 @@
+"""The continuous robot arena (paper 2.5, 3.5): a differential-drive robot in a walled square.
+
+The robot is the iRobot Create the paper drove in Webots. Its eight actions are the
+wheel-speed pairs of the paper's Table 1, each held for 64 simulation steps. Two
+simulators sit behind one interface (:class:`RobotSim`):
+
+- ``kinematic`` (default): exact unicycle arcs, compiled with Numba. Within one
+  simulation step the wheel speeds are constant, so the robot follows an arc of
+  forward speed v = r (w_l + w_r) / 2 and turn rate w = r (w_r - w_l) / L exactly
+  (no integration error; the only rounding is float64's).
+- ``mujoco`` (the ``robot`` extra, imported only when asked for): a rigid-body model
+  built from the MJCF string :data:`MJCF` below: a 2.3 kg chassis, two wheels on hinges
+  driven by velocity-controlled motors with a torque limit, a frictionless front
+  caster, wheel-floor friction, and four solid walls; physics step 4 ms (8 per 32 ms
+  simulation step). The wheels collide as spheres of the wheel radius, one contact
+  point each, so the track is the axle length (cylinder wheels touch the floor along
+  their width and scrub in turns, turning less than commanded). It adds inertia, motor
+  lag and, if the friction is lowered or the torque raised, slip. Starting from rest,
+  an action ends 1-3 cm from the kinematic prediction and turns 1-6 % less; repeated
+  in motion, the turn is within 1 %.
+
+Choices the paper leaves open, made here (all are fields of :class:`RobotConfig`):
+
+- Geometry. Wheel radius 0.031 m and axle length 0.271756 m (wheels at +-0.135878 m),
+  the numbers of Webots' Create model (as read by public Webots wrappers of it; the
+  project's reference notes give ~0.031 m and ~0.26 m). Webots caps the Create's wheels
+  at 16 rad/s, so omega_max = 5 pi = 15.7 rad/s is within its range. Body radius
+  0.17 m (the Create is ~0.34 m across).
+- Step length. 32 ms, the Webots default ``basicTimeStep``; an action lasts
+  64 x 32 ms = 2.048 s, so action 2 (both wheels at 0.5 omega_max) drives
+  0.031 x 7.854 x 2.048 = 0.499 m, one "cell" of the grid and twice the goal radius.
+- Table 1's row 8 is printed as (0.75, 0.5), a duplicate of row 3. Read here as
+  (-0.5, -0.75), the mirror of row 6, so the set is symmetric: forward-left, forward,
+  forward-right, sharp left, sharp right, back-right, back, back-left.
+- Walls. The arena is [0, 30] m square; the robot's disc must stay inside, so its
+  centre stays in [0.17, 29.83]. An action is available when the kinematic prediction
+  of its whole arc (checked at each of its 64 simulation steps; between two of them the
+  arc bulges by < 0.1 mm) keeps the centre there. The planner masks unavailable
+  actions; exploration draws only among available ones (as the grid does). In the
+  MuJoCo mode the same kinematic prediction decides availability and the walls are
+  also solid, so a slipping robot is stopped by them, not teleported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any, Protocol
+
+import numpy as np
+from numba import njit
+
+from cml_edge.errors import InputError
+
+N_ROBOT_ACTIONS = 8
+
+# Table 1 (omega_l / omega_max, omega_r / omega_max); row 8 is the mirror of row 6 (above).
+WHEEL_FRACTIONS = np.array(
+    [[0.5, 0.75], [0.5, 0.5], [0.75, 0.5], [0.2, 0.9], [0.9, 0.2], [-0.75, -0.5],
+     [-0.5, -0.5], [-0.5, -0.75]], dtype=np.float64)
+ACTION_NAMES = ("forward-left", "forward", "forward-right", "sharp-left", "sharp-right",
+                "back-right", "back", "back-left")
+SIMS = ("kinematic", "mujoco")
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Arena, robot geometry and timing (sources in the module docstring)."""
+
+    arena: float = 30.0
+    wheel_radius: float = 0.031
+    axle_length: float = 0.271756
+    body_radius: float = 0.17
+    omega_max: float = 5.0 * math.pi
+    dt: float = 0.032
+    steps_per_action: int = 64
+
+    def __post_init__(self) -> None:
+        for name in ("arena", "wheel_radius", "axle_length", "omega_max", "dt"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                    or v <= 0:
+                raise InputError(f"robot {name} {v!r} is not a finite number > 0")
+        if not math.isfinite(self.body_radius) or self.body_radius < 0:
+            raise InputError(f"robot body_radius {self.body_radius!r} is not a finite number >= 0")
+        if 2 * self.body_radius >= self.arena:
+            raise InputError(f"robot body_radius {self.body_radius} does not fit in an arena of "
+                             f"side {self.arena}")
+        v = self.steps_per_action
+        if isinstance(v, bool) or int(v) != v or v < 1:
+            raise InputError(f"steps_per_action {v!r} is not a positive integer")
+
+    @property
+    def lo(self) -> float:
+        """Lowest x or y the robot's centre may take."""
+        return float(self.body_radius)
+
+    @property
+    def hi(self) -> float:
+        """Highest x or y the robot's centre may take."""
+        return float(self.arena - self.body_radius)
+
+    @property
+    def action_time(self) -> float:
+        """Seconds one action lasts (64 x 32 ms = 2.048 s by default)."""
+        return self.dt * self.steps_per_action
+
+    def wheel_speeds(self) -> np.ndarray:
+        """(8, 2) wheel speeds (omega_l, omega_r) in rad/s of the eight actions."""
+        return WHEEL_FRACTIONS * self.omega_max
+
+    def twists(self) -> np.ndarray:
+        """(8, 2) forward speed v (m/s) and turn rate w (rad/s) of each action."""
+        w = self.wheel_speeds()
+        r = self.wheel_radius
+        return np.stack([r * (w[:, 0] + w[:, 1]) / 2.0,
+                         r * (w[:, 1] - w[:, 0]) / self.axle_length], axis=1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RobotConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise InputError(f"unknown robot config keys: {', '.join(sorted(unknown))}")
+        return cls(**d)
+
+
+def action_geometry(config: RobotConfig) -> dict[str, np.ndarray]:
+    """Per action, in the robot's frame: the chord (dx forward, dy left), its length, the
+    turn and the arc length of one full action (closed form; for documentation and tests)."""
+    tw = config.twists()
+    T = config.action_time
+    turn = tw[:, 1] * T
+    arc = tw[:, 0] * T
+    chord = np.zeros((N_ROBOT_ACTIONS, 2))
+    for a in range(N_ROBOT_ACTIONS):
+        v, w = tw[a]
+        if w == 0.0:
+            chord[a] = (v * T, 0.0)
+        else:
+            chord[a] = (v / w * math.sin(w * T), v / w * (1.0 - math.cos(w * T)))
+    return {"chord": chord, "chord_length": np.hypot(chord[:, 0], chord[:, 1]), "turn": turn,
+            "arc_length": np.abs(arc)}
+
+
+# compiled kinematics ---------------------------------------------------------------
+@njit(cache=True)
+def wrap_angle(th):
+    """th wrapped to [-pi, pi)."""
+    return (th + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def arc_step(x, y, th, v, w, dt):
+    """One simulation step at constant wheel speeds: the exact unicycle arc."""
+    if w == 0.0:
+        return x + v * dt * math.cos(th), y + v * dt * math.sin(th), th
+    th1 = th + w * dt
+    rho = v / w
+    return x + rho * (math.sin(th1) - math.sin(th)), y - rho * (math.cos(th1) - math.cos(th)), th1
+
+
+@njit(cache=True)
+def drive(pose, v, w, dt, n, lo, hi, out, path):
+    """Hold the twist (v, w) for ``n`` simulation steps from ``pose`` (x, y, theta).
+
+    Writes the end pose to ``out`` (theta wrapped) and, when ``path`` has n + 1 rows, every
+    intermediate pose to it. Returns True when the centre stayed within [lo, hi]^2 at every
+    simulation step (the pose is written either way).
+    """
+    x = pose[0]
+    y = pose[1]
+    th = pose[2]
+    record = path.shape[0] == n + 1
+    if record:
+        path[0, 0] = x
+        path[0, 1] = y
+        path[0, 2] = th
+    inside = True
+    for i in range(n):
+        x, y, th = arc_step(x, y, th, v, w, dt)
+        if x < lo or x > hi or y < lo or y > hi:
+            inside = False
+        if record:
+            path[i + 1, 0] = x
+            path[i + 1, 1] = y
+            path[i + 1, 2] = th
+    out[0] = x
+    out[1] = y
+    out[2] = wrap_angle(th)
+    return inside
+
+
+@njit(cache=True)
+def available_actions(pose, twists, dt, n, lo, hi, mask, work, nopath):
+    """mask[a] = 1 when action a's predicted arc keeps the robot inside; returns how many.
+
+    Shortcut (exact): no point of an action's path is farther from its start than its arc
+    length |v| n dt, so a robot farther than the longest of them from every wall has all
+    actions available, and the arcs need not be driven.
+    """
+    reach = 0.0
+    for a in range(twists.shape[0]):
+        reach = max(reach, abs(twists[a, 0]) * dt * n)
+    room = min(pose[0] - lo, hi - pose[0], pose[1] - lo, hi - pose[1])
+    if room > reach * (1.0 + 1e-9) + 1e-9:
+        for a in range(twists.shape[0]):
+            mask[a] = 1
+        return twists.shape[0]
+    count = 0
+    for a in range(twists.shape[0]):
+        ok = drive(pose, twists[a, 0], twists[a, 1], dt, n, lo, hi, work, nopath)
+        mask[a] = 1 if ok else 0
+        count += mask[a]
+    return count
+
+
+@njit(cache=True)
+def nth_available(mask, r):
+    """The r-th available action (ascending), -1 if there is none."""
+    for a in range(mask.shape[0]):
+        if mask[a]:
+            if r == 0:
+                return a
+            r -= 1
+    return -1
+
+
+NO_PATH = np.zeros((0, 3))
+
+
+# the simulators --------------------------------------------------------------------
+class RobotSim(Protocol):
+    """What the CML drives: a robot with a pose (x, y, theta) and eight actions."""
+
+    name: str
+    config: RobotConfig
+    pose: np.ndarray
+
+    def reset(self, pose: np.ndarray) -> None:
+        """Place the robot at ``pose`` (x, y, theta), at rest."""
+
+    def available(self) -> np.ndarray:
+        """uint8 mask of the actions whose predicted arc keeps the robot in the arena."""
+
+    def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
+        """Hold ``action`` for one action time; the new pose. ``path`` ((64 + 1, 3)) gets
+        the pose at every simulation step."""
+
+
+class _ArcMask:
+    """``available`` for both simulators: an action is available when its kinematic arc
+    from the current pose stays inside the walls (the paper's unavailable moves)."""
+
+    config: RobotConfig
+    pose: np.ndarray
+    twists: np.ndarray
+    _work: np.ndarray
+
+    def available(self) -> np.ndarray:
+        c = self.config
+        mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
+        available_actions(self.pose, self.twists, c.dt, c.steps_per_action, c.lo, c.hi, mask,
+                          self._work, NO_PATH)
+        return mask
+
+
+class KinematicSim(_ArcMask):
+    """Exact unicycle-arc kinematics (compiled)."""
+
+    name = "kinematic"
+
+    def __init__(self, config: RobotConfig | None = None) -> None:
+        self.config = config or RobotConfig()
+        self.twists = self.config.twists()
+        self.pose = np.zeros(3)
+        self._work = np.zeros(3)
+
+    def reset(self, pose) -> None:
+        self.pose = _check_pose(pose, self.config)
+
+    def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
+        c = self.config
+        a = _check_action(action)
+        out = np.zeros(3)
+        drive(self.pose, self.twists[a, 0], self.twists[a, 1], c.dt, c.steps_per_action, c.lo,
+              c.hi, out, NO_PATH if path is None else path)
+        self.pose = out
+        return out.copy()
+
+
+MJCF = """
+<mujoco model="create-arena">
+  <compiler angle="radian"/>
+  <option timestep="{timestep}" integrator="implicitfast"/>
+  <worldbody>
+    <geom name="floor" type="plane" pos="{half} {half} 0" size="{halfw} {halfw} 0.1"
+          friction="{friction} 0.005 0.0001"/>
+    <geom name="wall_s" type="box" pos="{half} -0.05 0.15" size="{halfw} 0.05 0.15"/>
+    <geom name="wall_n" type="box" pos="{half} {far} 0.15" size="{halfw} 0.05 0.15"/>
+    <geom name="wall_w" type="box" pos="-0.05 {half} 0.15" size="0.05 {halfw} 0.15"/>
+    <geom name="wall_e" type="box" pos="{far} {half} 0.15" size="0.05 {halfw} 0.15"/>
+    <body name="chassis" pos="{half} {half} 0">
+      <freejoint name="root"/>
+      <inertial pos="{com_x} 0 0.05" mass="{mass}" diaginertia="0.025 0.025 0.04"/>
+      <geom name="shell" type="cylinder" size="{body_radius} 0.03" pos="0 0 0.07"
+            contype="1" conaffinity="1" friction="0.3 0.005 0.0001"/>
+      <geom name="caster" type="sphere" size="{caster} 0 0" pos="{caster_x} 0 {caster}"
+            contype="0" conaffinity="0"/>
+      <body name="left_wheel" pos="0 {half_axle} {wheel_radius}">
+        <joint name="left" type="hinge" axis="0 1 0"/>
+        <geom type="sphere" size="{wheel_radius}" mass="0.1"
+              friction="{friction} 0.0001 0.0001"/>
+      </body>
+      <body name="right_wheel" pos="0 -{half_axle} {wheel_radius}">
+        <joint name="right" type="hinge" axis="0 1 0"/>
+        <geom type="sphere" size="{wheel_radius}" mass="0.1"
+              friction="{friction} 0.0001 0.0001"/>
+      </body>
+    </body>
+  </worldbody>
+  <contact>
+    <pair geom1="caster" geom2="floor" condim="1"/>
+  </contact>
+  <actuator>
+    <velocity name="left_motor" joint="left" kv="{kv}" forcelimited="true"
+              forcerange="-{torque} {torque}"/>
+    <velocity name="right_motor" joint="right" kv="{kv}" forcelimited="true"
+              forcerange="-{torque} {torque}"/>
+  </actuator>
+</mujoco>
+"""
+
+
+@dataclass(frozen=True)
+class MujocoOptions:
+    """Physics settings of the MuJoCo robot (not in the paper; chosen for a Create-like
+    robot that rolls without slipping at Table 1's speeds)."""
+
+    timestep: float = 0.004  # physics step (s); 8 of them make one 32 ms simulation step
+    friction: float = 1.0  # wheel-floor sliding friction coefficient
+    kv: float = 1.0  # velocity servo gain (N m s / rad): stiff speed control, as a motor PID
+    torque: float = 0.2  # motor torque limit (N m): 6.5 N at the rim, below mu m g / 2
+    mass: float = 2.3  # chassis mass (kg); the Create is ~2.2 kg without payload
+    com_x: float = 0.04  # centre of mass ahead of the axle, over the caster side (m)
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not math.isfinite(v) or (v <= 0 and f.name != "com_x"):
+                raise InputError(f"mujoco {f.name} {v!r} is not a finite number > 0")
+
+
+class MujocoSim(_ArcMask):
+    """The Create on MuJoCo: velocity-controlled wheels, a caster, friction, solid walls."""
+
+    name = "mujoco"
+
+    def __init__(self, config: RobotConfig | None = None,
+                 options: MujocoOptions | None = None) -> None:
+        try:
+            import mujoco
+        except ImportError:
+            raise InputError("the mujoco simulator needs the mujoco package "
+                             "(pip install 'cml-edge[robot]')") from None
+        self._mj = mujoco
+        self.config = config or RobotConfig()
+        self.options = options or MujocoOptions()
+        c, o = self.config, self.options
+        substeps = c.dt / o.timestep
+        if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
+            raise InputError(f"mujoco timestep {o.timestep} does not divide the simulation step "
+                             f"{c.dt}")
+        self.substeps = int(round(substeps))
+        self.model = mujoco.MjModel.from_xml_string(mujoco_xml(c, o))
+        self.data = mujoco.MjData(self.model)
+        self.twists = c.twists()
+        self.wheels = c.wheel_speeds()
+        self._work = np.zeros(3)
+        self.pose = np.zeros(3)
+        self._qadr_l = self.model.jnt_qposadr[self.model.joint("left").id]
+        self._qadr_r = self.model.jnt_qposadr[self.model.joint("right").id]
+
+    def reset(self, pose) -> None:
+        pose = _check_pose(pose, self.config)
+        mj, m, d = self._mj, self.model, self.data
+        mj.mj_resetData(m, d)
+        d.qpos[0:3] = (pose[0], pose[1], 0.0)
+        half = pose[2] / 2.0
+        d.qpos[3:7] = (math.cos(half), 0.0, 0.0, math.sin(half))
+        d.ctrl[:] = 0.0
+        mj.mj_forward(m, d)
+        self.pose = self._read_pose()
+
+    def _read_pose(self) -> np.ndarray:
+        q = self.data.qpos
+        w, x, y, z = q[3], q[4], q[5], q[6]
+        th = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return np.array([q[0], q[1], th])
+
+    def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
+        a = _check_action(action)
+        mj, m, d = self._mj, self.model, self.data
+        d.ctrl[0] = self.wheels[a, 0]
+        d.ctrl[1] = self.wheels[a, 1]
+        n = self.config.steps_per_action
+        if path is None:
+            mj.mj_step(m, d, nstep=self.substeps * n)
+        else:
+            path[0] = self.pose
+            for i in range(n):
+                mj.mj_step(m, d, nstep=self.substeps)
+                path[i + 1] = self._read_pose()
+        self.pose = self._read_pose()
+        return self.pose.copy()
+
+    def tilt(self) -> float:
+        """The chassis's tilt from upright (radians): stays ~0 unless the robot tips."""
+        zz = self.data.xmat[self.model.body("chassis").id][8]
+        return float(math.acos(max(-1.0, min(1.0, zz))))
+
+
+def mujoco_xml(config: RobotConfig, options: MujocoOptions) -> str:
+    """The MJCF of the arena and robot for these settings."""
+    half = config.arena / 2.0
+    return MJCF.format(
+        timestep=options.timestep, half=half, halfw=half + 0.1, far=config.arena + 0.05,
+        friction=options.friction, com_x=options.com_x, mass=options.mass,
+        body_radius=config.body_radius, caster=0.015, caster_x=0.8 * config.body_radius,
+        half_axle=config.axle_length / 2.0, wheel_radius=config.wheel_radius, kv=options.kv,
+        torque=options.torque)
+
+
+def make_sim(name: str, config: RobotConfig | None = None, **options: Any) -> RobotSim:
+    """The simulator called ``name`` (``kinematic`` or ``mujoco``)."""
+    if name == "kinematic":
+        if options:
+            raise InputError(f"the kinematic simulator takes no options ({', '.join(options)})")
+        return KinematicSim(config)
+    if name == "mujoco":
+        return MujocoSim(config, MujocoOptions(**options))
+    raise InputError(f"unknown simulator {name!r}; allowed: {', '.join(SIMS)}")
+
+
+def _check_pose(pose, config: RobotConfig) -> np.ndarray:
+    p = np.array(pose, dtype=np.float64).reshape(-1)
+    if p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise InputError(f"pose {pose!r} is not three finite numbers (x, y, theta)")
+    if not (config.lo <= p[0] <= config.hi and config.lo <= p[1] <= config.hi):
+        raise InputError(f"pose ({p[0]}, {p[1]}) puts the robot outside the arena (allowed: "
+                         f"{config.lo:g}..{config.hi:g} m for x and y)")
+    p[2] = wrap_angle(p[2])
+    return p
+
+
+def _check_action(action) -> int:
+    if isinstance(action, bool) or int(action) != action or not 0 <= action < N_ROBOT_ACTIONS:
+        raise InputError(f"action {action!r} is not an integer in 0..{N_ROBOT_ACTIONS - 1}")
+    return int(action)
