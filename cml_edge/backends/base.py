@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from cml_edge.backends.dispatch import kernels_for
+from cml_edge.backends.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_rmatvec, sa_sigmoid
 from cml_edge.errors import InputError
 
 
@@ -38,7 +38,6 @@ class SynapticArray:
 
     def __init__(self, state: Any) -> None:
         self.state = state
-        self._kernels = kernels_for(type(state))
 
     # construction -----------------------------------------------------------------
     @classmethod
@@ -58,31 +57,31 @@ class SynapticArray:
     def matvec(self, x: np.ndarray) -> np.ndarray:
         """W x, as the device reads it."""
         out = np.zeros(self.shape[0])
-        self._kernels.matvec(self.state, _vector(x, self.shape[1]), out)
+        sa_matvec(self.state, _vector(x, self.shape[1]), out)
         return out
 
     def rmatvec(self, y: np.ndarray) -> np.ndarray:
         """W^T y, read from the same stored weights (planning's transposed read)."""
         out = np.zeros(self.shape[1])
-        self._kernels.rmatvec(self.state, _vector(y, self.shape[0]), out)
+        sa_rmatvec(self.state, _vector(y, self.shape[0]), out)
         return out
 
     def outer_update(self, post: np.ndarray, pre: np.ndarray, lr: float,
                      defer: bool = True) -> None:
         """The local rule W += lr * post pre^T, in place, now or at ``commit`` (Eqs. 1-3)."""
-        self._kernels.outer_update(
+        sa_outer_update(
             self.state, _vector(post, self.shape[0]), _vector(pre, self.shape[1]), float(lr),
             bool(defer),
         )
 
     def commit(self) -> None:
         """Apply the updates accumulated with ``defer=True`` (end of a walk)."""
-        self._kernels.commit(self.state)
+        sa_commit(self.state)
 
     def sigmoid(self, z: np.ndarray) -> np.ndarray:
         """sigmoid(z) as this device's neurons compute it (the affordance, paper 2.1)."""
         out = np.zeros(len(z))
-        self._kernels.sigmoid(self.state, _vector(z, len(z)), out)
+        sa_sigmoid(self.state, _vector(z, len(z)), out)
         return out
 
     def weight_bits(self) -> int:
