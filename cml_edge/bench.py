@@ -91,9 +91,11 @@ ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, s
 
 def bench_robot(sims: Sequence[str], repeats: int = 5) -> dict[str, dict[str, float]]:
     """Simulated actions per second of the robot on each simulator (module docstring)."""
-    from cml_edge.robot.cml import RobotCMLSettings, RobotTrainConfig, draw_goals
     from cml_edge.robot.models import evaluate_models, train_models
+    from cml_edge.robot.observation import RobotCMLSettings
+    from cml_edge.robot.planning import draw_goals
     from cml_edge.robot.sim import RobotConfig, make_sim
+    from cml_edge.robot.training import RobotTrainConfig
 
     settings = RobotCMLSettings("heading")
     out = {}

@@ -37,14 +37,17 @@ def test_random_action_is_uniform_over_available():
 
 def test_mixed_exploration_covers_more_of_the_arena_early():
     from cml_edge.core.cml import CML
-    from cml_edge.grid.training import Explorer, TrainConfig, _train_walks
+    from cml_edge.grid.exploration import GridExplorer
+    from cml_edge.grid.training import FactoredLearner, TrainConfig, train_loop
 
     arena = GridArena.empty(30)
     coverage = {}
     for explore in ("random", "mixed"):
         cml = CML.create()
-        explorer = Explorer(arena)
         config = TrainConfig(walks=100, steps=900, explore=explore)
-        _train_walks(cml, explorer, config, 0, "factored", True, 0, 1, np.zeros(100))
+        explorer = GridExplorer.of(arena, config, 0)
+        c = cml.config
+        train_loop(FactoredLearner.of(cml, 30), explorer, c.obs_origin, c.obs_scale, 0, 1,
+                   config.steps, np.zeros(100))
         coverage[explore] = explorer.n_visited[0]
     assert coverage["mixed"] > 1.5 * coverage["random"]

@@ -7,21 +7,19 @@ import numpy as np
 import pytest
 
 from cml_edge.core.cml import CML
-from cml_edge.robot.cml import (
-    BASE_POSE,
-    OBSERVATIONS,
-    RobotCMLSettings,
-    RobotTrainConfig,
-    draw_goals,
-    observe,
-    plan_robot,
-    train_robot,
-)
 from cml_edge.robot.models import (
     RobotModelError,
     load_robot_models,
     save_robot_models,
 )
+from cml_edge.robot.observation import (
+    BEARING,
+    OBSERVATIONS,
+    RobotCMLSettings,
+    RobotFrame,
+    observe,
+)
+from cml_edge.robot.planning import BASE_POSE, draw_goals, plan_robot
 from cml_edge.robot.sim import (
     WHEEL_FRACTIONS,
     KinematicSim,
@@ -30,6 +28,7 @@ from cml_edge.robot.sim import (
     make_sim,
     wrap_angle,
 )
+from cml_edge.robot.training import RobotTrainConfig, train_robot
 from cml_edge.storage import ModelFileError, load_model, save_model
 
 RC = RobotConfig()
@@ -146,8 +145,9 @@ def test_heading_observation_makes_action_effects_pose_independent():
             sim.reset(pose)
             new = sim.step(0)
             o_t, o_1 = np.zeros(n), np.zeros(n)
-            observe(mode, pose, pose, 15.0, 30.0, 1 / 30, o_t)
-            observe(mode, pose, new, 15.0, 30.0, 1 / 30, o_1)
+            frame = RobotFrame(mode, BEARING, 15.0, 30.0, 1 / 30)
+            observe(frame, pose, pose, o_t)
+            observe(frame, pose, new, o_1)
             deltas.append(o_1 - o_t)
         spread = np.ptp(np.array(deltas), axis=0).max()
         assert (spread < 1e-12) == invariant

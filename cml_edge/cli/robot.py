@@ -21,20 +21,6 @@ from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
 from cml_edge.protocol import EVAL_SEED
-from cml_edge.robot.cml import (
-    BASE_POSE,
-    GOAL_HEADINGS,
-    GOAL_RADIUS,
-    MAX_ACTIONS,
-    OBSERVATIONS,
-    PATHS,
-    STOPS,
-    RobotCMLSettings,
-    RobotTrainConfig,
-    draw_goals,
-    plan_robot,
-    summarize_robot,
-)
 from cml_edge.robot.models import (
     asdict_options,
     evaluate_models,
@@ -43,7 +29,19 @@ from cml_edge.robot.models import (
     save_robot_models,
     train_models,
 )
+from cml_edge.robot.observation import GOAL_HEADINGS, OBSERVATIONS, RobotCMLSettings
+from cml_edge.robot.planning import (
+    BASE_POSE,
+    GOAL_RADIUS,
+    MAX_ACTIONS,
+    PATHS,
+    STOPS,
+    draw_goals,
+    plan_robot,
+    summarize_robot,
+)
 from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
+from cml_edge.robot.training import RobotTrainConfig
 
 
 def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:

@@ -31,26 +31,29 @@ Choices the paper leaves open, made here:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from cml_edge.backends import SynapticArray, make_array
+from cml_edge.core.records import Record
+from cml_edge.core.step import norms_and_gram, prepare, scores
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import N_ACTIONS
 from cml_edge.protocol import STREAM_INIT
 
 UTILITIES = ("normalized", "raw")
 
 
 @dataclass(frozen=True)
-class CMLConfig:
+class CMLConfig(Record):
     """Sizes, learning rates and the choices documented in the module docstring."""
+
+    what = "CML config"
 
     n_s: int = 256
     n_i: int = 2
-    n_a: int = N_ACTIONS
+    n_a: int = 8  # the grid's eight king moves; the robot's eight wheel-speed pairs
     lr_q: float = 0.001
     lr_k: float = 0.001
     lr_v: float = 0.001
@@ -82,16 +85,6 @@ class CMLConfig:
         """The defaults with the observation frame of a ``size`` x ``size`` training arena."""
         return cls(**{"obs_scale": float(size), "obs_origin": (size - 1) / 2.0, **overrides})
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> CMLConfig:
-        known = {f.name for f in fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise InputError(f"unknown CML config keys: {', '.join(sorted(unknown))}")
-        return cls(**d)
 
 
 class CML:
@@ -149,17 +142,6 @@ class CML:
         """g = sigmoid(W_k s)."""
         return self.W_k.sigmoid(self.W_k.matvec(s))
 
-    def utility_norms(self) -> np.ndarray:
-        """Per-action divisors of the utility: W_v's column norms, or ones for ``raw``."""
-        if self.config.utility == "raw":
-            return np.ones(self.config.n_a)
-        norms = np.array([column_norm(self.action_effect(a)) for a in range(self.config.n_a)])
-        return norms
-
-    def utility(self, d: np.ndarray, norms: np.ndarray) -> np.ndarray:
-        """u = W_v^T d, divided by ``norms`` (from :meth:`utility_norms`)."""
-        return self.W_v.rmatvec(d) / norms
-
     # paper 2.4.3 -----------------------------------------------------------------
     def parameter_count(self) -> int:
         """(N_i + 2 N_a) N_s: the entries of W_q, W_k and W_v (4,608 for the paper's sizes)."""
@@ -196,9 +178,29 @@ def one_hot(a: int, n: int) -> np.ndarray:
     return v
 
 
-def column_norm(col: np.ndarray) -> float:
-    """Euclidean norm summed in index order (as the compiled planner sums it); 1 if zero."""
-    total = 0.0
-    for c in col:
-        total += float(c) * float(c)
-    return float(np.sqrt(total)) if total > 0 else 1.0
+class ReferenceScorer:
+    """Utility x affordance through the CML's Python methods: the scorer of the reference
+    path (:func:`cml_edge.core.step.scores`), held bit-identical to the compiled
+    :class:`~cml_edge.core.step.SeamScorer`."""
+
+    def __init__(self, cml: CML) -> None:
+        n_a = cml.config.n_a
+        self.cml = cml
+        self.norms = np.ones(n_a)
+        self.gram = np.zeros((n_a, n_a))
+
+    def prepare(self, normalize: bool, gram: bool) -> None:
+        if not (normalize or gram):
+            self.norms[:] = 1.0
+            return
+        cols = np.array([self.cml.action_effect(a) for a in range(self.cml.config.n_a)])
+        norms_and_gram(cols, normalize, gram, self.norms, self.gram)
+
+    def scores(self, o: np.ndarray, dgo: np.ndarray, u: np.ndarray, score: np.ndarray) -> None:
+        cml = self.cml
+        u[:] = cml.W_v.rmatvec(cml.W_q.matvec(dgo))  # W_v^T (s* - s), s* - s read once
+        score[:] = u / self.norms * cml.affordance(cml.embed(o))
+
+
+prepare.register(ReferenceScorer, ReferenceScorer.prepare)
+scores.register(ReferenceScorer, ReferenceScorer.scores)

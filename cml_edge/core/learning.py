@@ -11,9 +11,9 @@ All reads happen before any update, so a step sees one set of weights in both
 schedules: ``walk`` (the paper: updates accumulated, applied when the walk ends by
 ``commit``) and ``step`` (applied in place at once, as an on-chip rule may).
 
-The compiled twin of :func:`learn_step` is :func:`cml_edge.core.step.seam_learn`,
-which every compiled training loop (grid and robot) calls; the tests hold the two to bit
-equality.
+:class:`ReferenceLearner` plugs :func:`learn_step` into a world's training loop (the
+reference path); its compiled twin is :class:`cml_edge.core.step.SeamLearner`, and the tests
+hold the two to bit equality.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from cml_edge.core.cml import CML, one_hot
+from cml_edge.core.step import begin_walk, end_walk, learn
 from cml_edge.errors import InputError
 
 SCHEDULES = ("walk", "step")
@@ -56,8 +57,26 @@ def learn_step(cml: CML, o_t: np.ndarray, o_next: np.ndarray, a: int, defer: boo
     return float(np.sqrt(total))
 
 
-def end_walk(cml: CML, defer: bool) -> None:
-    """Apply the walk's accumulated updates (the paper's schedule)."""
-    if defer:
-        for arr in cml.arrays:
-            arr.commit()
+class ReferenceLearner:
+    """Eqs. 1-3 through the arrays' Python methods (:func:`learn_step`): the learner of the
+    reference path, the readable statement the compiled :class:`~cml_edge.core.step.SeamLearner`
+    is held to, bit for bit."""
+
+    def __init__(self, cml: CML, defer: bool) -> None:
+        self.cml = cml
+        self.defer = bool(defer)
+
+    def learn(self, o_t: np.ndarray, o_1: np.ndarray, a: int) -> float:
+        return learn_step(self.cml, o_t, o_1, int(a), self.defer)
+
+    def end_walk(self) -> float:
+        """Apply the walk's accumulated updates (the paper's schedule)."""
+        if self.defer:
+            for arr in self.cml.arrays:
+                arr.commit()
+        return 0.0
+
+
+begin_walk.register(ReferenceLearner, lambda learner: None)
+learn.register(ReferenceLearner, ReferenceLearner.learn)
+end_walk.register(ReferenceLearner, ReferenceLearner.end_walk)

@@ -1,112 +1,279 @@
-"""The CML's compiled step through the synaptic-array seam, shared by every compiled loop
-(the grid's :func:`cml_edge.training.train_direct` and :func:`cml_edge.planning.plan_direct`,
-the robot's loops in :mod:`cml_edge.robot.cml`).
+"""The CML's step as plug-ins of the worlds' loops: learners, scorers, and the choice.
 
-Each function takes the three array states ``q, k, v`` (W_q, W_k, W_v) and preallocated
-work vectors, so a loop allocates once, before its first step. ``inline="always"`` keeps
-the loops as fast as when these bodies were written out in them.
+A world's training loop (the grid's :func:`cml_edge.grid.training.train_loop`, the robot's
+:func:`cml_edge.robot.training.train_loop`) calls, for each walk::
+
+    begin_walk(learner)
+    total += learn(learner, o_t, o_1, a)        # every step: Eqs. 1-3, returns ||e_t||
+    total += end_walk(learner)                  # the walk's end: the per-walk commit
+
+and its planning loop calls ``prepare(scorer, normalize, gram)`` once per batch and
+``scores(scorer, o, dgo, u, score)`` at every decision, then :func:`wta`. Each of these is
+routed by the type of the plug-in (:func:`cml_edge.routing.routed`), so one loop serves
+every learner and scorer, compiled or, through the loop's ``py_func``, in plain Python:
+
+- :class:`SeamLearner` / :class:`SeamScorer`: the reads and updates through the three
+  arrays' seam, compiled (the ``direct`` path; any device);
+- :class:`ReferenceLearner` / :class:`ReferenceScorer`: the same operations through the
+  arrays' Python methods (:mod:`cml_edge.core.learning`, the CML's methods; the
+  ``reference`` path), which the tests hold bit-identical to the seam's;
+- :class:`FactoredScorer`: float64 arrays only, the utility and affordance maps
+  R = W_v^T W_q and M = W_k W_q formed once per batch, so a decision costs 2 N_a N_i
+  multiply-adds (the ``factored`` path); the grid adds its factored learner.
+
+Reads are the displacement reads of :mod:`cml_edge.core.cml`: s_{t+1} - s_t and s* - s are
+read as W_q (o_{t+1} - o_t) and W_q (o* - o), one read each.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
 
-from cml_edge.backends.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_rmatvec, sa_sigmoid
+from cml_edge.backends.dispatch import (
+    sa_commit,
+    sa_matvec,
+    sa_outer_update,
+    sa_rmatvec,
+    sa_sigmoid,
+)
+from cml_edge.routing import routed
+
+
+# the routed plug-in functions ------------------------------------------------------------
+@routed
+def begin_walk(learner):
+    """A walk starts (the factored learner forms its per-walk maps)."""
+
+
+@routed
+def learn(learner, o_t, o_1, a):
+    """One step of Eqs. 1-3, from observation o_t to o_1 by action a; returns ||e_t||
+    (0 for a learner that sums its error at the walk's end)."""
+
+
+@routed
+def end_walk(learner):
+    """A walk ends: apply what it accumulated (the paper's schedule); returns the part of
+    the walk's summed error not yet returned by :func:`learn`."""
+
+
+@routed
+def prepare(scorer, normalize, gram):
+    """Read, once per planning batch, W_v's column norms (``normalize``; ones otherwise) and,
+    if ``gram``, its Gram matrix K = W_v^T W_v (the escape planner's)."""
+
+
+@routed
+def scores(scorer, o, dgo, u, score):
+    """u = W_v^T W_q (o* - o) (the raw utility; ``dgo`` = o* - o) and
+    score = u / norms x sigmoid(W_k W_q o), utility x affordance (paper 2.1)."""
+
+
+# shared arithmetic --------------------------------------------------------------------
+@njit(cache=True)
+def column_norm(col):
+    """||col||, summed in index order; 1 for a zero column (so that dividing by it is safe)."""
+    total = 0.0
+    for i in range(col.shape[0]):
+        total += col[i] * col[i]
+    return math.sqrt(total) if total > 0 else 1.0
 
 
 @njit(cache=True)
-def learn_buffers(n_s, n_i, n_a):
-    """Work vectors for :func:`seam_learn`: s, ds, va, e, -e (n_s); z, g, a - g, a (n_a);
-    o_{t+1} - o_t (n_i)."""
-    return (np.zeros(n_s), np.zeros(n_s), np.zeros(n_s), np.zeros(n_s), np.zeros(n_s),
-            np.zeros(n_a), np.zeros(n_a), np.zeros(n_a), np.zeros(n_a), np.zeros(n_i))
-
-
-@njit(cache=True, inline="always")
-def seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf):
-    """One step of Eqs. 1-3 (the compiled twin of :func:`cml_edge.learning.learn_step`,
-    held to bit equality by the tests); returns ||e_t||^2. All reads precede the updates."""
-    s, ds, va, e, neg_e, z, g, post_k, action, d_o = buf
-    n_s = s.shape[0]
-    n_a = z.shape[0]
-    for i in range(n_a):
-        action[i] = 0.0
-    action[a] = 1.0
-    sa_matvec(q, o_t, s)  # s_t = W_q o_t
-    sa_matvec(k, s, z)
-    sa_sigmoid(k, z, g)  # g_t = sigmoid(W_k s_t)
-    for i in range(d_o.shape[0]):
-        d_o[i] = o_1[i] - o_t[i]
-    sa_matvec(q, d_o, ds)  # s_{t+1} - s_t, one read
-    sa_matvec(v, action, va)  # W_v a_t
-    sq = 0.0
-    for i in range(n_s):
-        e[i] = ds[i] - va[i]  # e_t = s_{t+1} - s_hat_{t+1}
-        neg_e[i] = -e[i]
-        sq += e[i] * e[i]
-    for i in range(n_a):
-        post_k[i] = action[i] - g[i]
-    sa_outer_update(k, post_k, s, lr_k, defer)  # Eq. 1
-    sa_outer_update(v, e, action, lr_v, defer)  # Eq. 2
-    sa_outer_update(q, neg_e, o_1, lr_q, defer)  # Eq. 3
-    return sq
-
-
-@njit(cache=True, inline="always")
-def seam_commit(q, k, v):
-    """Apply the accumulated updates of a walk (the per-walk schedule)."""
-    sa_commit(q)
-    sa_commit(k)
-    sa_commit(v)
-
-
-@njit(cache=True)
-def plan_buffers(n_s, n_a):
-    """Work vectors for :func:`seam_scores`: d, s (n_s); u, z, g (n_a)."""
-    return np.zeros(n_s), np.zeros(n_s), np.zeros(n_a), np.zeros(n_a), np.zeros(n_a)
-
-
-@njit(cache=True)
-def seam_utility_norms(v, normalize, norms):
-    """||W_v a|| per action, read once per planning batch (ones for the raw utility)."""
-    n_s = v[0].shape[0]
-    n_a = norms.shape[0]
-    col = np.zeros(n_s)
-    action = np.zeros(n_a)
+def norms_and_gram(cols, normalize, gram, norms, K):
+    """From W_v's columns (rows of ``cols``): norms[a] = ||W_v a|| (if ``normalize``, else 1)
+    and, if ``gram``, K[a, b] = (W_v a) . (W_v b), each summed in index order."""
+    n_a = cols.shape[0]
     for a in range(n_a):
-        norms[a] = 1.0
-        if normalize:
-            action[:] = 0.0
-            action[a] = 1.0
-            sa_matvec(v, action, col)
-            total = 0.0
-            for i in range(n_s):
-                total += col[i] * col[i]
-            norms[a] = math.sqrt(total) if total > 0 else 1.0
-
-
-@njit(cache=True, inline="always")
-def seam_scores(q, k, v, o, dgo, norms, score, buf):
-    """Utility x affordance per action (paper 2.1): score_a = (W_v^T W_q (o* - o))_a / norms_a
-    x sigmoid(W_k W_q o)_a, with ``dgo`` = o* - o read through W_q once."""
-    d, s, u, z, g = buf
-    sa_matvec(q, dgo, d)  # d = s* - s
-    sa_rmatvec(v, d, u)  # u = W_v^T d
-    sa_matvec(q, o, s)
-    sa_matvec(k, s, z)
-    sa_sigmoid(k, z, g)  # affordance
-    for a in range(score.shape[0]):
-        score[a] = u[a] / norms[a] * g[a]
+        norms[a] = column_norm(cols[a]) if normalize else 1.0
+        if gram:
+            for b in range(n_a):
+                total = 0.0
+                for i in range(cols.shape[1]):
+                    total += cols[a, i] * cols[b, i]
+                K[a, b] = total
 
 
 @njit(cache=True)
 def wta(score, mask):
-    """Winner-take-all over the available actions (``mask``); -1 if none is available."""
+    """Winner-take-all over the available actions (``mask``); -1 if none is available.
+    The first index wins a tie."""
     best = -1
     for a in range(score.shape[0]):
         if mask[a] and (best < 0 or score[a] > score[best]):
             best = a
     return best
+
+
+# through the seam (the direct path) ----------------------------------------------------------
+class SeamLearner(NamedTuple):
+    """Eqs. 1-3 through the three arrays' seam, compiled; work vectors allocated once."""
+
+    q: Any  # W_q's state
+    k: Any  # W_k's state
+    v: Any  # W_v's state
+    lr_q: float
+    lr_k: float
+    lr_v: float
+    defer: bool  # the per-walk schedule: accumulate, commit at the walk's end
+    s: np.ndarray  # (n_s) s_t
+    ds: np.ndarray  # (n_s) s_{t+1} - s_t
+    va: np.ndarray  # (n_s) W_v a_t
+    e: np.ndarray  # (n_s) e_t
+    neg_e: np.ndarray  # (n_s) -e_t
+    z: np.ndarray  # (n_a) W_k s_t
+    g: np.ndarray  # (n_a) the affordance
+    post_k: np.ndarray  # (n_a) a_t - g_t
+    action: np.ndarray  # (n_a) a_t, one-hot
+    d_o: np.ndarray  # (n_i) o_{t+1} - o_t
+
+    @classmethod
+    def of(cls, cml: Any, defer: bool) -> SeamLearner:
+        c = cml.config
+        q, k, v = (arr.state for arr in cml.arrays)
+        vec = np.zeros
+        return cls(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), vec(c.n_s), vec(c.n_s),
+                   vec(c.n_s), vec(c.n_s), vec(c.n_s), vec(c.n_a), vec(c.n_a), vec(c.n_a),
+                   vec(c.n_a), vec(c.n_i))
+
+
+@njit(cache=True, inline="always")
+def seam_learn(lr, o_t, o_1, a):
+    """One step of Eqs. 1-3 (the compiled twin of :func:`cml_edge.core.learning.learn_step`,
+    held to bit equality by the tests); returns ||e_t||. All reads precede the updates."""
+    action = lr.action
+    for i in range(action.shape[0]):
+        action[i] = 0.0
+    action[a] = 1.0
+    sa_matvec(lr.q, o_t, lr.s)  # s_t = W_q o_t
+    sa_matvec(lr.k, lr.s, lr.z)
+    sa_sigmoid(lr.k, lr.z, lr.g)  # g_t = sigmoid(W_k s_t)
+    for i in range(lr.d_o.shape[0]):
+        lr.d_o[i] = o_1[i] - o_t[i]
+    sa_matvec(lr.q, lr.d_o, lr.ds)  # s_{t+1} - s_t, one read
+    sa_matvec(lr.v, action, lr.va)  # W_v a_t
+    sq = 0.0
+    for i in range(lr.e.shape[0]):
+        lr.e[i] = lr.ds[i] - lr.va[i]  # e_t = s_{t+1} - s_hat_{t+1}
+        lr.neg_e[i] = -lr.e[i]
+        sq += lr.e[i] * lr.e[i]
+    for i in range(action.shape[0]):
+        lr.post_k[i] = action[i] - lr.g[i]
+    sa_outer_update(lr.k, lr.post_k, lr.s, lr.lr_k, lr.defer)  # Eq. 1
+    sa_outer_update(lr.v, lr.e, action, lr.lr_v, lr.defer)  # Eq. 2
+    sa_outer_update(lr.q, lr.neg_e, o_1, lr.lr_q, lr.defer)  # Eq. 3
+    return math.sqrt(sq)
+
+
+@njit(cache=True, inline="always")
+def seam_begin_walk(lr):
+    pass
+
+
+@njit(cache=True, inline="always")
+def seam_end_walk(lr):
+    if lr.defer:
+        sa_commit(lr.q)
+        sa_commit(lr.k)
+        sa_commit(lr.v)
+    return 0.0
+
+
+class SeamScorer(NamedTuple):
+    """Utility x affordance through the seam, compiled; work vectors allocated once."""
+
+    q: Any
+    k: Any
+    v: Any
+    norms: np.ndarray  # (n_a) W_v's column norms (or ones), from prepare
+    gram: np.ndarray  # (n_a, n_a) W_v^T W_v, from prepare when asked
+    cols: np.ndarray  # (n_a, n_s) W_v's columns as read
+    onehot: np.ndarray  # (n_a)
+    d: np.ndarray  # (n_s) s* - s
+    s: np.ndarray  # (n_s)
+    z: np.ndarray  # (n_a)
+    g: np.ndarray  # (n_a)
+
+    @classmethod
+    def of(cls, cml: Any) -> SeamScorer:
+        c = cml.config
+        q, k, v = (arr.state for arr in cml.arrays)
+        return cls(q, k, v, np.ones(c.n_a), np.zeros((c.n_a, c.n_a)), np.zeros((c.n_a, c.n_s)),
+                   np.zeros(c.n_a), np.zeros(c.n_s), np.zeros(c.n_s), np.zeros(c.n_a),
+                   np.zeros(c.n_a))
+
+
+@njit(cache=True)
+def seam_prepare(sc, normalize, gram):
+    if not (normalize or gram):  # nothing to read
+        for a in range(sc.norms.shape[0]):
+            sc.norms[a] = 1.0
+        return
+    for a in range(sc.onehot.shape[0]):  # W_v's columns, one read each
+        sc.onehot[:] = 0.0
+        sc.onehot[a] = 1.0
+        sa_matvec(sc.v, sc.onehot, sc.cols[a])
+    norms_and_gram(sc.cols, normalize, gram, sc.norms, sc.gram)
+
+
+@njit(cache=True, inline="always")
+def seam_scores(sc, o, dgo, u, score):
+    sa_matvec(sc.q, dgo, sc.d)  # d = s* - s, one read
+    sa_rmatvec(sc.v, sc.d, u)  # u = W_v^T d
+    sa_matvec(sc.q, o, sc.s)
+    sa_matvec(sc.k, sc.s, sc.z)
+    sa_sigmoid(sc.k, sc.z, sc.g)  # affordance
+    for a in range(score.shape[0]):
+        score[a] = u[a] / sc.norms[a] * sc.g[a]
+
+
+# the factored float64 shortcut ------------------------------------------------------------
+class FactoredScorer(NamedTuple):
+    """Planning on float64 weights with R = W_v^T W_q and M = W_k W_q formed per batch."""
+
+    Wq: np.ndarray
+    Wk: np.ndarray
+    Wv: np.ndarray
+    R: np.ndarray  # (n_a, n_i)
+    M: np.ndarray  # (n_a, n_i)
+    norms: np.ndarray
+    gram: np.ndarray
+
+    @classmethod
+    def of(cls, cml: Any) -> FactoredScorer:
+        c = cml.config
+        return cls(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W, np.zeros((c.n_a, c.n_i)),
+                   np.zeros((c.n_a, c.n_i)), np.ones(c.n_a), np.zeros((c.n_a, c.n_a)))
+
+
+@njit(cache=True)
+def factored_prepare(sc, normalize, gram):
+    sc.R[:] = sc.Wv.T @ sc.Wq
+    sc.M[:] = sc.Wk @ sc.Wq
+    norms_and_gram(np.ascontiguousarray(sc.Wv.T), normalize, gram, sc.norms, sc.gram)
+
+
+@njit(cache=True, inline="always")
+def factored_scores(sc, o, dgo, u, score):
+    n_i = o.shape[0]
+    for a in range(score.shape[0]):
+        ua = 0.0
+        z = 0.0
+        for j in range(n_i):
+            ua += sc.R[a, j] * dgo[j]
+            z += sc.M[a, j] * o[j]
+        u[a] = ua
+        score[a] = ua / sc.norms[a] * (1.0 / (1.0 + math.exp(-z)))
+
+
+begin_walk.register(SeamLearner, seam_begin_walk)
+learn.register(SeamLearner, seam_learn)
+end_walk.register(SeamLearner, seam_end_walk)
+prepare.register(SeamScorer, seam_prepare)
+scores.register(SeamScorer, seam_scores)
+prepare.register(FactoredScorer, factored_prepare)
+scores.register(FactoredScorer, factored_scores)

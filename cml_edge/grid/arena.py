@@ -71,6 +71,14 @@ def available_moves(free, x, y, mask):
     return count
 
 
+@njit(cache=True, inline="always")
+def observe(x, y, origin, scale, out):
+    """The observation of cell (x, y): o = (p - origin) / scale (the CML's frame,
+    :class:`cml_edge.core.cml.CMLConfig`'s ``obs_origin`` and ``obs_scale``)."""
+    out[0] = (x - origin) / scale
+    out[1] = (y - origin) / scale
+
+
 def chebyshev(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Chebyshev distance max(|dx|, |dy|): the fewest king moves on an empty grid."""
     d = np.abs(np.asarray(p) - np.asarray(q))

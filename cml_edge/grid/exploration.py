@@ -15,13 +15,20 @@ Chebyshev rings around the query and stops as soon as no unscanned ring can hold
 closer point; the Python reference path uses scipy's cKDTree instead, and the tests
 check the two agree.
 
-Randomness: step ``n`` of training draws at counters 4n (threshold), 4n + 1 (random
-move) and 4n + 2 (novelty tie-break) of the exploration stream.
+Randomness: walk ``w`` starts on the free cell drawn at counter w of the walk-start
+stream; step ``n`` of training draws at counters 4n (threshold), 4n + 1 (random move) and
+4n + 2 (novelty tie-break) of the exploration stream.
+
+The training loop (:func:`cml_edge.grid.training.train_loop`) explores through three
+functions routed by the explorer's type: :func:`start_walk`, :func:`explore` and
+:func:`visit`; :class:`GridExplorer` is the compiled explorer, :class:`ReferenceExplorer`
+the reference path's.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -29,7 +36,9 @@ from scipy.spatial import cKDTree
 
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, NTH_MOVE, POPCOUNT, GridArena
-from cml_edge.rng import uniform
+from cml_edge.protocol import STREAM_EXPLORE, STREAM_WALK_START
+from cml_edge.rng import randint, stream_key, uniform
+from cml_edge.routing import routed
 
 EXPLORATIONS = ("random", "mixed")
 RANDOM, MIXED = 0, 1
@@ -194,3 +203,103 @@ def choose_action_reference(explore: int, arena: GridArena, visited: VisitedSet,
     else:
         u = uniform(key, ctr + 1)
     return moves[min(int(u * len(moves)), len(moves) - 1)]
+
+
+# the explorer plug-ins of the training loop --------------------------------------------------
+@routed
+def start_walk(explorer, w):
+    """Walk ``w`` starts: its start cell (x, y), visited; its t_expl (Eq. 5) is set."""
+
+
+@routed
+def explore(explorer, x, y, step):
+    """The exploration move from (x, y) at global training step ``step``."""
+
+
+@routed
+def visit(explorer, x, y):
+    """The agent has arrived at (x, y)."""
+
+
+class GridExplorer(NamedTuple):
+    """The compiled explorer: the visited cells as a grid, novelty by the grid index."""
+
+    free: np.ndarray  # uint8 (N, N)
+    masks: np.ndarray  # uint8 (N, N) available moves per cell
+    visited: np.ndarray  # uint8 (N, N), since training began
+    n_visited: np.ndarray  # int64[1]
+    keys: np.ndarray  # uint64[2]: the walk-start and exploration streams
+    n_free: int
+    code: int  # RANDOM or MIXED
+    n_expl: int  # N_expl of Eq. 5
+    t_expl: np.ndarray  # float64[1]: this walk's threshold
+    novelty: np.ndarray  # float64[N_ACTIONS] work vector
+    best: np.ndarray  # float64[K_NEAREST] work vector
+
+    @classmethod
+    def of(cls, arena: GridArena, config: Any, seed: int) -> GridExplorer:
+        free = arena.free
+        return cls(free, arena.move_masks, np.zeros_like(free), np.zeros(1, np.int64),
+                   _keys(seed), int(free.sum()), explore_code(config.explore), config.n_expl,
+                   np.zeros(1), np.zeros(N_ACTIONS), np.zeros(K_NEAREST))
+
+
+def _keys(seed: int) -> np.ndarray:
+    return np.array([stream_key(seed, STREAM_WALK_START), stream_key(seed, STREAM_EXPLORE)],
+                    dtype=np.uint64)
+
+
+@njit(cache=True, inline="always")
+def grid_visit(ex, x, y):
+    if not ex.visited[x, y]:
+        ex.visited[x, y] = 1
+        ex.n_visited[0] += 1
+
+
+@njit(cache=True, inline="always")
+def grid_start_walk(ex, w):
+    x, y = nth_free_cell(ex.free, randint(ex.keys[0], w, ex.n_free))
+    grid_visit(ex, x, y)
+    ex.t_expl[0] = threshold(w, ex.n_expl)
+    return x, y
+
+
+@njit(cache=True, inline="always")
+def grid_explore(ex, x, y, step):
+    return choose_action(ex.code, ex.masks, ex.visited, ex.n_visited[0], x, y, ex.t_expl[0],
+                         ex.keys[1], step, ex.novelty, ex.best)
+
+
+class ReferenceExplorer:
+    """The reference path's explorer: a Python set of visited cells, cKDTree novelty."""
+
+    def __init__(self, arena: GridArena, config: Any, seed: int) -> None:
+        self.arena = arena
+        self.free = arena.free
+        self.n_free = int(self.free.sum())
+        self.keys = _keys(seed)
+        self.code = explore_code(config.explore)
+        self.n_expl = config.n_expl
+        self.visited = VisitedSet()
+        self.t_expl = 0.0
+
+    def start_walk(self, w: int) -> tuple[int, int]:
+        x, y = nth_free_cell(self.free, randint(self.keys[0], w, self.n_free))
+        self.visited.add(x, y)
+        self.t_expl = threshold(w, self.n_expl)
+        return x, y
+
+    def explore(self, x: int, y: int, step: int) -> int:
+        return choose_action_reference(self.code, self.arena, self.visited, int(x), int(y),
+                                       self.t_expl, self.keys[1], step)
+
+    def visit(self, x: int, y: int) -> None:
+        self.visited.add(int(x), int(y))
+
+
+start_walk.register(GridExplorer, grid_start_walk)
+explore.register(GridExplorer, grid_explore)
+visit.register(GridExplorer, grid_visit)
+start_walk.register(ReferenceExplorer, ReferenceExplorer.start_walk)
+explore.register(ReferenceExplorer, ReferenceExplorer.explore)
+visit.register(ReferenceExplorer, ReferenceExplorer.visit)

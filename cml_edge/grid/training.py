@@ -1,10 +1,19 @@
-"""Training: exploration walks with the local rule, on three paths that agree.
+"""Training on the grid: exploration walks with the local rule, one loop on three paths.
 
-- ``reference``: plain Python, one array call per operation (:mod:`cml_edge.core.learning`);
-- ``direct``: the same operations as one compiled Numba loop, the backend's kernels
-  compiled in through the seam (:mod:`cml_edge.backends.dispatch`); bit-identical to
-  the reference, and what device arrays emulate operation by operation;
-- ``factored``: the exact shortcut for float64 arrays under the per-walk schedule.
+:func:`train_loop` states the training once: each walk starts on a random free cell, each
+step picks an exploration move, reads the observations of the two cells and runs the
+local rule (Eqs. 1-3), and the walk's end applies what it accumulated. The explorer and
+the learner are plug-ins routed by type (:mod:`cml_edge.core.step`), which makes the
+three paths:
+
+- ``reference``: the loop's plain-Python ``py_func`` with the reference learner (the
+  arrays' Python methods, :mod:`cml_edge.core.learning`) and the reference explorer
+  (scipy's cKDTree for the novelty of Eq. 4);
+- ``direct``: the loop compiled with the seam learner and the compiled explorer; the
+  same operations, bit-identical to the reference, and what device arrays emulate
+  operation by operation;
+- ``factored``: the loop compiled with :class:`FactoredLearner`, the exact shortcut for
+  float64 arrays under the per-walk schedule.
 
 The factored form. Within a walk the weights are frozen and s_t = W_q o_t, so
 W_k s_t = (W_k W_q) o_t, and the walk's summed updates factor through accumulators of
@@ -27,27 +36,25 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from cml_edge.core.cml import CML
-from cml_edge.core.learning import check_walks, end_walk, learn_step, schedule_defers
-from cml_edge.core.step import learn_buffers, seam_commit, seam_learn
+from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
+from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena
+from cml_edge.grid.arena import MOVES, GridArena, observe
 from cml_edge.grid.exploration import (
-    K_NEAREST,
     N_EXPL_FRACTION,
-    VisitedSet,
-    choose_action,
-    choose_action_reference,
+    GridExplorer,
+    ReferenceExplorer,
+    explore,
     explore_code,
-    nth_free_cell,
-    threshold,
+    start_walk,
+    visit,
 )
-from cml_edge.protocol import STREAM_EXPLORE, STREAM_WALK_START
-from cml_edge.rng import randint, stream_key
 
 PATHS = ("reference", "direct", "factored")
 
@@ -72,18 +79,6 @@ class TrainConfig:
         return int(round(N_EXPL_FRACTION * self.walks))
 
 
-class Explorer:
-    """Exploration state that persists across walks: the visited cells (Eq. 4)."""
-
-    def __init__(self, arena: GridArena) -> None:
-        self.arena = arena
-        self.free = arena.free
-        self.masks = arena.move_masks
-        self.visited = np.zeros_like(self.free)
-        self.n_visited = np.zeros(1, dtype=np.int64)
-        self.reference = VisitedSet()
-
-
 def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str = "direct",
           epoch: int = 10, on_epoch: Callable[[int], None] | None = None) -> np.ndarray:
     """Train ``cml`` in place; returns the mean training error ||e_t|| of each walk.
@@ -97,199 +92,166 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     if path == "factored" and not (defer and all(
             getattr(a, "supports_factored", False) for a in cml.arrays)):
         raise InputError("the factored path needs float64 arrays and the per-walk schedule")
-    explorer = Explorer(arena)
+    learner = make_learner(cml, path, defer, arena.size)
+    explorer = (ReferenceExplorer(arena, config, seed) if path == "reference"
+                else GridExplorer.of(arena, config, seed))
+    loop = train_loop.py_func if path == "reference" else train_loop
+    c = cml.config
     errors = np.zeros(config.walks)
     done = 0
     while done < config.walks:
         stop = min(done + epoch, config.walks)
-        _train_walks(cml, explorer, config, seed, path, defer, done, stop, errors)
+        loop(learner, explorer, c.obs_origin, c.obs_scale, done, stop, config.steps, errors)
         done = stop
         if on_epoch is not None:
             on_epoch(done)
     return errors
 
 
-def _train_walks(cml, explorer, config, seed, path, defer, w0, w1, errors):
-    c = cml.config
-    args = (explorer.free, explorer.masks, explorer.visited, explorer.n_visited, c.obs_origin,
-            c.obs_scale, w0, w1, config.steps, config.n_expl, explore_code(config.explore),
-            c.lr_q, c.lr_k, c.lr_v, int(seed), errors)
-    if path == "direct":
-        train_direct(cml.W_q.state, cml.W_k.state, cml.W_v.state, defer, *args)
-    elif path == "factored":
-        train_factored(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W, *args)
-    else:
-        train_reference(cml, explorer, config, seed, defer, w0, w1, errors)
-
-
-def train_reference(cml: CML, explorer: Explorer, config: TrainConfig, seed: int, defer: bool,
-                    w0: int, w1: int, errors: np.ndarray) -> None:
-    """Walks w0..w1-1 in plain Python: the readable statement of the training loop."""
-    start_key = stream_key(seed, STREAM_WALK_START)
-    key = stream_key(seed, STREAM_EXPLORE)
-    code = explore_code(config.explore)
-    n_free = int(explorer.free.sum())
-    visited = explorer.reference
-    for w in range(w0, w1):
-        x, y = nth_free_cell(explorer.free, randint(start_key, w, n_free))
-        visited.add(x, y)
-        t_expl = threshold(w, config.n_expl)
-        total = 0.0
-        for t in range(config.steps):
-            a = choose_action_reference(code, explorer.arena, visited, x, y, t_expl, key,
-                                        w * config.steps + t)
-            nx, ny = x + MOVES[a, 0], y + MOVES[a, 1]
-            total += learn_step(cml, cml.observe((x, y)), cml.observe((nx, ny)), a, defer)
-            x, y = int(nx), int(ny)
-            visited.add(x, y)
-        end_walk(cml, defer)
-        errors[w] = total / config.steps
+def make_learner(cml: CML, path: str, defer: bool, size: int):
+    """The learner of ``path``: reference, seam (direct) or factored (float64)."""
+    if path == "reference":
+        return ReferenceLearner(cml, defer)
+    if path == "factored":
+        return FactoredLearner.of(cml, size)
+    return SeamLearner.of(cml, defer)
 
 
 @njit(cache=True)
-def _visit(visited, n_visited, x, y):
-    if not visited[x, y]:
-        visited[x, y] = 1
-        n_visited[0] += 1
-
-
-@njit(cache=True)
-def train_direct(q, k, v, defer, free, masks, visited, n_visited, origin, scale, w0, w1, steps,
-                 n_expl, explore, lr_q, lr_k, lr_v, seed, errors):
-    """The compiled twin of :func:`train_reference`, through the synaptic-array seam
-    (:func:`cml_edge.core.step.seam_learn`)."""
-    n_s = q[0].shape[0]
-    n_i = q[0].shape[1]
-    n_a = k[0].shape[0]
-    o_t = np.zeros(n_i)
-    o_1 = np.zeros(n_i)
-    buf = learn_buffers(n_s, n_i, n_a)
-    novelty = np.zeros(N_ACTIONS)
-    best = np.zeros(K_NEAREST)
-    start_key = stream_key(seed, STREAM_WALK_START)
-    key = stream_key(seed, STREAM_EXPLORE)
-    n_free = 0
-    for cx in range(free.shape[0]):
-        for cy in range(free.shape[1]):
-            n_free += free[cx, cy]
+def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
+    """Walks w0..w1-1: the training of the module docstring, for any learner and explorer."""
+    o_t = np.zeros(2)  # a cell's observation (x, y)
+    o_1 = np.zeros(2)
     for w in range(w0, w1):
-        x, y = nth_free_cell(free, randint(start_key, w, n_free))
-        _visit(visited, n_visited, x, y)
-        t_expl = threshold(w, n_expl)
+        x, y = start_walk(explorer, w)
+        begin_walk(learner)
         total = 0.0
         for t in range(steps):
-            a = choose_action(explore, masks, visited, n_visited[0], x, y, t_expl, key,
-                              w * steps + t, novelty, best)
+            a = explore(explorer, x, y, w * steps + t)
             nx = x + MOVES[a, 0]
             ny = y + MOVES[a, 1]
-            o_t[0] = (x - origin) / scale
-            o_t[1] = (y - origin) / scale
-            o_1[0] = (nx - origin) / scale
-            o_1[1] = (ny - origin) / scale
-            total += math.sqrt(seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf))
+            observe(x, y, origin, scale, o_t)
+            observe(nx, ny, origin, scale, o_1)
+            total += learn(learner, o_t, o_1, a)
             x = nx
             y = ny
-            _visit(visited, n_visited, x, y)
-        if defer:
-            seam_commit(q, k, v)
+            visit(explorer, x, y)
+        total += end_walk(learner)
         errors[w] = total / steps
 
 
-@njit(cache=True)
-def train_factored(Wq, Wk, Wv, free, masks, visited, n_visited, origin, scale, w0, w1, steps,
-                   n_expl, explore, lr_q, lr_k, lr_v, seed, errors):
-    """The exact factored form of the per-walk schedule (module docstring), float64 only.
+# the factored learner ---------------------------------------------------------------------
+class FactoredLearner(NamedTuple):
+    """The per-walk schedule on float64 weights through the accumulators of the module
+    docstring. Two more exact rearrangements keep a step to a few additions: the
+    affordance term of A, sum_t g(o_t) o_t^T, is summed per visited cell
+    (n_cell g(o_cell) o_cell^T, one sigmoid per cell and walk instead of one per step), and
+    the training error ||e_t|| = ||W_q delta_a - W_v a|| depends only on the action, so it
+    is formed once per action and walk (delta_a = MOVES[a] / obs_scale)."""
 
-    Two more exact rearrangements keep a step to a few additions: the affordance term
-    of A, sum_t g(o_t) o_t^T, is summed per visited cell (n_cell g(o_cell) o_cell^T,
-    one sigmoid per cell and walk instead of one per step), and the training error
-    ||e_t|| = ||W_q delta_a - W_v a|| depends only on the action, so it is formed
-    once per action and walk (delta_a = MOVES[a] / obs_scale).
-    """
-    n_s, n_i = Wq.shape
-    n_a = Wk.shape[0]
-    n = free.shape[0]
-    M = np.zeros((n_a, n_i))
-    E = np.zeros((n_a, n_i))  # sum a_t o_t^T
-    B = np.zeros((n_i, n_a))
-    cnt = np.zeros(n_a)
-    C = np.zeros((n_i, n_i))
-    D = np.zeros((n_a, n_i))
-    err_a = np.zeros(n_a)
-    visits = np.zeros((n, n), np.int64)
-    cells = np.zeros((steps + 1, 2), np.int64)
-    o_t = np.zeros(n_i)
-    o_1 = np.zeros(n_i)
-    novelty = np.zeros(N_ACTIONS)
-    best = np.zeros(K_NEAREST)
-    start_key = stream_key(seed, STREAM_WALK_START)
-    key = stream_key(seed, STREAM_EXPLORE)
-    n_free = 0
-    for cx in range(free.shape[0]):
-        for cy in range(free.shape[1]):
-            n_free += free[cx, cy]
-    for w in range(w0, w1):
-        M[:] = Wk @ Wq
-        for a in range(n_a):
-            sq = 0.0
-            for r in range(n_s):
-                e = Wq[r, 0] * (MOVES[a, 0] / scale) + Wq[r, 1] * (MOVES[a, 1] / scale) - Wv[r, a]
-                sq += e * e
-            err_a[a] = math.sqrt(sq)
-        E[:] = 0.0
-        B[:] = 0.0
-        cnt[:] = 0.0
-        C[:] = 0.0
-        D[:] = 0.0
-        n_cells = 0
-        x, y = nth_free_cell(free, randint(start_key, w, n_free))
-        _visit(visited, n_visited, x, y)
-        t_expl = threshold(w, n_expl)
-        for t in range(steps):
-            a = choose_action(explore, masks, visited, n_visited[0], x, y, t_expl, key,
-                              w * steps + t, novelty, best)
-            nx = x + MOVES[a, 0]
-            ny = y + MOVES[a, 1]
-            o_t[0] = (x - origin) / scale
-            o_t[1] = (y - origin) / scale
-            o_1[0] = (nx - origin) / scale
-            o_1[1] = (ny - origin) / scale
-            for i in range(n_i):
-                di = o_1[i] - o_t[i]
-                E[a, i] += o_t[i]
-                B[i, a] += di
-                D[a, i] += o_1[i]
-                for j in range(n_i):
-                    C[i, j] += di * o_1[j]
-            cnt[a] += 1.0
-            if visits[x, y] == 0:
-                cells[n_cells, 0] = x
-                cells[n_cells, 1] = y
-                n_cells += 1
-            visits[x, y] += 1
-            x = nx
-            y = ny
-            _visit(visited, n_visited, x, y)
-        A = E.copy()  # A = sum (a_t - g_t) o_t^T
-        total = 0.0
-        for c in range(n_cells):
-            cx = cells[c, 0]
-            cy = cells[c, 1]
-            m = visits[cx, cy]
-            visits[cx, cy] = 0
-            o_t[0] = (cx - origin) / scale
-            o_t[1] = (cy - origin) / scale
-            for r in range(n_a):
-                z = 0.0
-                for j in range(n_i):
-                    z += M[r, j] * o_t[j]
-                g = m / (1.0 + math.exp(-z))
-                for j in range(n_i):
-                    A[r, j] -= g * o_t[j]
-        for a in range(n_a):
-            total += cnt[a] * err_a[a]
-        Wk += lr_k * (A @ Wq.T)
-        dWv = lr_v * (Wq @ B - Wv * cnt)
-        Wq += lr_q * (Wv @ D - Wq @ C)
-        Wv += dWv
-        errors[w] = total / steps
+    Wq: np.ndarray
+    Wk: np.ndarray
+    Wv: np.ndarray
+    lr: np.ndarray  # float64[3]: lr_q, lr_k, lr_v
+    frame: np.ndarray  # float64[2]: obs_origin, obs_scale
+    M: np.ndarray  # (n_a, n_i) W_k W_q, per walk
+    err_a: np.ndarray  # (n_a) ||W_q delta_a - W_v a||, per walk
+    E: np.ndarray  # (n_a, n_i) sum a_t o_t^T
+    B: np.ndarray  # (n_i, n_a)
+    cnt: np.ndarray  # (n_a) n
+    C: np.ndarray  # (n_i, n_i)
+    D: np.ndarray  # (n_a, n_i)
+    visits: np.ndarray  # (size, size) int64: steps from each cell in this walk
+    cells: np.ndarray  # (size * size, 2) int64: the cells visited, in order
+    n_cells: np.ndarray  # int64[1]
+    o: np.ndarray  # (n_i) work vector
+
+    @classmethod
+    def of(cls, cml: CML, size: int) -> FactoredLearner:
+        c = cml.config
+        n_a, n_i = c.n_a, c.n_i
+        return cls(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W,
+                   np.array([c.lr_q, c.lr_k, c.lr_v]), np.array([c.obs_origin, c.obs_scale]),
+                   np.zeros((n_a, n_i)), np.zeros(n_a), np.zeros((n_a, n_i)),
+                   np.zeros((n_i, n_a)), np.zeros(n_a), np.zeros((n_i, n_i)),
+                   np.zeros((n_a, n_i)), np.zeros((size, size), np.int64),
+                   np.zeros((size * size, 2), np.int64), np.zeros(1, np.int64), np.zeros(n_i))
+
+
+@njit(cache=True)
+def factored_begin_walk(fl):
+    Wq = fl.Wq
+    Wv = fl.Wv
+    scale = fl.frame[1]
+    fl.M[:] = fl.Wk @ Wq
+    for a in range(fl.err_a.shape[0]):
+        sq = 0.0
+        for r in range(Wq.shape[0]):
+            e = Wq[r, 0] * (MOVES[a, 0] / scale) + Wq[r, 1] * (MOVES[a, 1] / scale) - Wv[r, a]
+            sq += e * e
+        fl.err_a[a] = math.sqrt(sq)
+    fl.E[:] = 0.0
+    fl.B[:] = 0.0
+    fl.cnt[:] = 0.0
+    fl.C[:] = 0.0
+    fl.D[:] = 0.0
+    fl.n_cells[0] = 0
+
+
+@njit(cache=True, inline="always")
+def factored_learn(fl, o_t, o_1, a):
+    n_i = o_t.shape[0]
+    for i in range(n_i):
+        di = o_1[i] - o_t[i]
+        fl.E[a, i] += o_t[i]
+        fl.B[i, a] += di
+        fl.D[a, i] += o_1[i]
+        for j in range(n_i):
+            fl.C[i, j] += di * o_1[j]
+    fl.cnt[a] += 1.0
+    # the cell of o_t (the frame maps cells to observations one to one)
+    x = int(round(o_t[0] * fl.frame[1] + fl.frame[0]))
+    y = int(round(o_t[1] * fl.frame[1] + fl.frame[0]))
+    if fl.visits[x, y] == 0:
+        fl.cells[fl.n_cells[0], 0] = x
+        fl.cells[fl.n_cells[0], 1] = y
+        fl.n_cells[0] += 1
+    fl.visits[x, y] += 1
+    return 0.0
+
+
+@njit(cache=True)
+def factored_end_walk(fl):
+    Wq = fl.Wq
+    Wk = fl.Wk
+    Wv = fl.Wv
+    M = fl.M
+    o = fl.o
+    A = fl.E.copy()  # A = sum (a_t - g_t) o_t^T
+    for c in range(fl.n_cells[0]):
+        cx = fl.cells[c, 0]
+        cy = fl.cells[c, 1]
+        m = fl.visits[cx, cy]
+        fl.visits[cx, cy] = 0
+        observe(cx, cy, fl.frame[0], fl.frame[1], o)
+        for r in range(M.shape[0]):
+            z = 0.0
+            for j in range(o.shape[0]):
+                z += M[r, j] * o[j]
+            g = m / (1.0 + math.exp(-z))
+            for j in range(o.shape[0]):
+                A[r, j] -= g * o[j]
+    total = 0.0
+    for a in range(fl.cnt.shape[0]):
+        total += fl.cnt[a] * fl.err_a[a]
+    lr_q, lr_k, lr_v = fl.lr[0], fl.lr[1], fl.lr[2]
+    Wk += lr_k * (A @ Wq.T)
+    dWv = lr_v * (Wq @ fl.B - Wv * fl.cnt)
+    Wq += lr_q * (Wv @ fl.D - Wq @ fl.C)
+    Wv += dWv
+    return total
+
+
+begin_walk.register(FactoredLearner, factored_begin_walk)
+learn.register(FactoredLearner, factored_learn)
+end_walk.register(FactoredLearner, factored_end_walk)

@@ -42,7 +42,7 @@ from gymnasium import spaces
 
 from cml_edge.errors import InputError
 from cml_edge.protocol import R_GOAL, REWARDS
-from cml_edge.robot.cml import BASE_POSE, GOAL_MARGIN, GOAL_RADIUS, MAX_ACTIONS
+from cml_edge.robot.planning import BASE_POSE, GOAL_MARGIN, GOAL_RADIUS, MAX_ACTIONS
 from cml_edge.robot.sim import N_ROBOT_ACTIONS, RobotConfig, action_geometry, make_sim
 
 ENV_ID = "cml_edge/RobotNav-v0"

@@ -1,8 +1,9 @@
-"""The continuous wheeled robot (paper 2.5, 3.5): model files, the protocol, figures, the CLI.
+"""The continuous wheeled robot (paper 2.5, 3.5): model files, the evaluation protocol, figures.
 
 The pieces live in :mod:`cml_edge.robot.sim` (arena, robot, kinematic and MuJoCo
-simulators) and :mod:`cml_edge.robot.cml` (observations, training, planning); this
-module puts them together for ``cml-edge robot train|evaluate|navigate``.
+simulators), :mod:`cml_edge.robot.observation`, :mod:`cml_edge.robot.training` and
+:mod:`cml_edge.robot.planning`; this module puts them together for
+``cml-edge robot train|evaluate|navigate`` (:mod:`cml_edge.cli.robot`).
 
 Model files. One ``.npz`` (no pickles) holds the CMLs of one or more training seeds:
 ``format`` ("cml-edge-robot-model"), ``format_version``, ``meta`` (JSON: the CML config,
@@ -32,18 +33,17 @@ import numpy as np
 
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.errors import InputError
-from cml_edge.robot.cml import (
+from cml_edge.robot.observation import RobotCMLSettings
+from cml_edge.robot.planning import (
     BASE_POSE,
     GOAL_RADIUS,
     MAX_ACTIONS,
-    RobotCMLSettings,
     RobotPlanResult,
-    RobotTrainConfig,
     plan_robot,
     summarize_robot,
-    train_robot,
 )
 from cml_edge.robot.sim import SIMS, RobotConfig, RobotSim
+from cml_edge.robot.training import RobotTrainConfig, train_robot
 from cml_edge.storage import atomic_write, cml_arrays, cml_from_arrays, read_npz
 
 FORMAT = "cml-edge-robot-model"
@@ -142,8 +142,7 @@ def evaluate_models(cmls: list[CML], sim: RobotSim, settings: RobotCMLSettings, 
         if progress is not None:
             progress(n + 1, len(cmls))
     wall = time.perf_counter() - t0
-    pooled = RobotPlanResult(*(np.concatenate([getattr(r, f) for r in results]) for f in
-                               ("final", "steps", "reached", "length", "poses", "actions")))
+    pooled = RobotPlanResult(*(np.concatenate(arrays) for arrays in zip(*results)))
     all_starts = np.concatenate([starts] * len(cmls))
     summary = summarize_robot(pooled, all_starts, np.concatenate([goals] * len(cmls)))
     actions = int(pooled.steps.sum())

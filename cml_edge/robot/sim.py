@@ -44,13 +44,15 @@ Choices the paper leaves open, made here (all are fields of :class:`RobotConfig`
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
-from typing import Any, Protocol
+from dataclasses import dataclass, fields
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numba import njit
 
+from cml_edge.core.records import Record
 from cml_edge.errors import InputError
+from cml_edge.routing import routed
 
 N_ROBOT_ACTIONS = 8
 
@@ -64,8 +66,10 @@ SIMS = ("kinematic", "mujoco")
 
 
 @dataclass(frozen=True)
-class RobotConfig:
+class RobotConfig(Record):
     """Arena, robot geometry and timing (sources in the module docstring)."""
+
+    what = "robot config"
 
     arena: float = 30.0
     wheel_radius: float = 0.031
@@ -116,16 +120,6 @@ class RobotConfig:
         return np.stack([r * (w[:, 0] + w[:, 1]) / 2.0,
                          r * (w[:, 1] - w[:, 0]) / self.axle_length], axis=1)
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> RobotConfig:
-        known = {f.name for f in fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise InputError(f"unknown robot config keys: {', '.join(sorted(unknown))}")
-        return cls(**d)
 
 
 def action_geometry(config: RobotConfig) -> dict[str, np.ndarray]:
@@ -232,6 +226,55 @@ def nth_available(mask, r):
 NO_PATH = np.zeros((0, 3))
 
 
+# the simulator plug-ins of the loops ---------------------------------------------------
+@routed
+def sim_reset(sim, start, pose):
+    """Place the robot at ``start``, at rest; ``pose`` gets the pose it is at."""
+
+
+@routed
+def sim_available(sim, pose, mask):
+    """mask[a] = 1 when action a's predicted arc from ``pose`` stays inside; returns how many."""
+
+
+@routed
+def sim_step(sim, pose, a, new, path):
+    """Hold action ``a`` from ``pose`` for one action time: ``new`` gets the pose after it
+    and ``path`` ((steps per action + 1, 3), or (0, 3) for none) every simulation step."""
+
+
+class Kinematics(NamedTuple):
+    """The exact kinematics as the loops' simulator (compiled): a function of the pose."""
+
+    twists: np.ndarray  # (8, 2) forward speed and turn rate of each action
+    dt: float
+    n_sub: int  # simulation steps per action
+    lo: float
+    hi: float
+    work: np.ndarray  # (3) work vector
+    nopath: np.ndarray  # (0, 3)
+
+
+@njit(cache=True, inline="always")
+def kinematics_reset(k, start, pose):
+    pose[:] = start
+
+
+@njit(cache=True, inline="always")
+def kinematics_available(k, pose, mask):
+    return available_actions(pose, k.twists, k.dt, k.n_sub, k.lo, k.hi, mask, k.work, k.nopath)
+
+
+@njit(cache=True, inline="always")
+def kinematics_step(k, pose, a, new, path):
+    drive(pose, k.twists[a, 0], k.twists[a, 1], k.dt, k.n_sub, k.lo, k.hi, new, path)
+
+
+sim_reset.register(Kinematics, kinematics_reset)
+sim_available.register(Kinematics, kinematics_available)
+sim_step.register(Kinematics, kinematics_step)
+
+
 # the simulators --------------------------------------------------------------------
 class RobotSim(Protocol):
     """What the CML drives: a robot with a pose (x, y, theta) and eight actions."""
@@ -249,6 +292,11 @@ class RobotSim(Protocol):
     def step(self, action: int, path: np.ndarray | None = None) -> np.ndarray:
         """Hold ``action`` for one action time; the new pose. ``path`` ((64 + 1, 3)) gets
         the pose at every simulation step."""
+
+    @property
+    def plugin(self) -> Any:
+        """What the training and planning loops drive (:func:`sim_reset`, :func:`sim_step`,
+        :func:`sim_available` are registered for its type)."""
 
 
 class _ArcMask:
@@ -278,6 +326,13 @@ class KinematicSim(_ArcMask):
         self.twists = self.config.twists()
         self.pose = np.zeros(3)
         self._work = np.zeros(3)
+
+    @property
+    def plugin(self) -> Kinematics:
+        """What the loops drive: the compiled kinematics."""
+        c = self.config
+        return Kinematics(self.twists, c.dt, c.steps_per_action, c.lo, c.hi, np.zeros(3),
+                          NO_PATH)
 
     def reset(self, pose) -> None:
         self.pose = _check_pose(pose, self.config)
@@ -417,10 +472,36 @@ class MujocoSim(_ArcMask):
         self.pose = self._read_pose()
         return self.pose.copy()
 
+    @property
+    def plugin(self) -> MujocoSim:
+        """What the loops drive: this object, through the Python functions registered below
+        (the loops then run as plain Python, physics-bound anyway)."""
+        return self
+
     def tilt(self) -> float:
         """The chassis's tilt from upright (radians): stays ~0 unless the robot tips."""
         zz = self.data.xmat[self.model.body("chassis").id][8]
         return float(math.acos(max(-1.0, min(1.0, zz))))
+
+
+def _mujoco_reset(sim: MujocoSim, start: np.ndarray, pose: np.ndarray) -> None:
+    sim.reset(start)
+    pose[:] = sim.pose
+
+
+def _mujoco_available(sim: MujocoSim, pose: np.ndarray, mask: np.ndarray) -> int:
+    mask[:] = sim.available()
+    return int(mask.sum())
+
+
+def _mujoco_step(sim: MujocoSim, pose: np.ndarray, a: int, new: np.ndarray,
+                 path: np.ndarray) -> None:
+    new[:] = sim.step(a, path if path.shape[0] else None)
+
+
+sim_reset.register(MujocoSim, _mujoco_reset)
+sim_available.register(MujocoSim, _mujoco_available)
+sim_step.register(MujocoSim, _mujoco_step)
 
 
 def mujoco_xml(config: RobotConfig, options: MujocoOptions) -> str:
