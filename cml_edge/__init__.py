@@ -1,8 +1,9 @@
 """cml-edge: a Cognitive Map Learner navigator emulated on neuromorphic synaptic arrays.
 
-The CML (Polykretis & Danielescu 2024, section 2.1) is written once against the
-synaptic-array seam (:mod:`cml_edge.backends`); float, fixed-point and crossbar
-arrays run it unchanged.
+The CML (Polykretis & Danielescu 2024, section 2.1) is written once (:mod:`cml_edge.core`)
+against the synaptic-array seam; every device (:mod:`cml_edge.backends`: float,
+fixed point, crossbar) runs it unchanged, in every world (:mod:`cml_edge.grid`,
+:mod:`cml_edge.robot`). The command is :mod:`cml_edge.cli`.
 """
 
 from __future__ import annotations
