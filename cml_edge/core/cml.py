@@ -13,8 +13,8 @@ Choices the paper leaves open, made here:
   [-0.5, 0.5]^2 while training. The frame is frozen into the model; a larger
   evaluation arena simply gives |o| > 0.5. Why centred: the affordance
   sigmoid(W_k W_q o) has no bias term, so with o in [0, 1]^2 it cannot be near-uniform
-  in the interior; its distortion of u * g cost 11 % longer paths and 0.4 % of goals
-  (measured, README). Why scaled: Eq. 3's per-walk sum has gain lr * steps * E|o|^2,
+  in the interior, and its distortion of u * g lengthens paths and loses goals (measured
+  in the README). Why scaled: Eq. 3's per-walk sum has gain lr * steps * E|o|^2,
   0.15 here; raw metre coordinates (|o|^2 up to 1,682) would diverge.
 - Initialisation: W_q ~ N(0, 1/N_s), so |s| ~ |o| and Eq. 1's per-walk gain
   lr * steps * E|s|^2 stays ~0.15 (with W_q ~ N(0, 1) it is ~40 and W_k overshoots,
@@ -23,7 +23,8 @@ Choices the paper leaves open, made here:
 - Displacement reads: s* - s and s_{t+1} - s_t are read as W_q (o* - o) and
   W_q (o_{t+1} - o_t), one read each with the difference formed before the array.
   The embedding is linear, so this is the same quantity; on a noisy or quantised
-  array it avoids subtracting two large noisy reads (DESIGN.md, prototypes).
+  array it avoids subtracting two large noisy reads, whose difference near the goal is
+  small against their read noise.
 - Utility: ``normalized`` (default) divides each u_a by the norm of W_v's column a,
   read once per planning batch, so the longer diagonal action vectors do not win
   near the goal; ``raw`` is the paper's plain inner product. Measured in the README.
