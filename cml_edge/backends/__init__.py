@@ -44,6 +44,8 @@ DEVICES: dict[str, DeviceSpec] = {}
 """Device name (the ``__backend__`` of a saved state) -> its spec."""
 BACKENDS: dict[str, BackendSpec] = {}
 """Backend name -> array class and options, derived from :data:`DEVICES`."""
+ARRAY_CLASSES: dict[str, type[SynapticArray]] = {}
+"""Device name -> array class, derived from :data:`DEVICES`."""
 
 
 def register_device(device: DeviceSpec) -> DeviceSpec:
@@ -54,6 +56,7 @@ def register_device(device: DeviceSpec) -> DeviceSpec:
         raise ValueError(f"device {device.name!r}: name {sorted(taken)[0]!r} is taken")
     register(device.array_class.State, device.kernels)
     DEVICES[device.name] = device
+    ARRAY_CLASSES[device.name] = device.array_class
     for name, backend in device.backends.items():
         BACKENDS[name] = BackendSpec(device.array_class, device.backend_options(name),
                                      backend.description, device)
@@ -63,6 +66,7 @@ def register_device(device: DeviceSpec) -> DeviceSpec:
 def unregister_device(device: DeviceSpec | str) -> None:
     """Remove a registered device (by spec or name) and its backend names."""
     spec = DEVICES.pop(device if isinstance(device, str) else device.name)
+    ARRAY_CLASSES.pop(spec.name, None)
     for name in spec.backends:
         BACKENDS.pop(name, None)
     unregister(spec.array_class.State)

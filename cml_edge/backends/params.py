@@ -99,7 +99,7 @@ def record_to_array(record: Any) -> np.ndarray:
     if dtype == np.float64:
         for name, v in zip(record._fields, record):
             if isinstance(v, int) and abs(v) >= _EXACT:
-                raise ValueError(f"{name} = {v} is not exact in a float64 vector")
+                raise InputError(f"{name} {v} is not allowed (allowed: |{name}| < 2^53)")
     return np.array(tuple(record), dtype=dtype)
 
 
