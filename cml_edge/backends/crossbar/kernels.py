@@ -228,9 +228,10 @@ def _mac(Gp, Gm, xs, buf, transposed):
 
 
 @njit(cache=True)
-def _convert_outputs(buf, out, n_out, P, sigma, scale, rng):
-    """Normalise, add the read noise, ADC, rescale; returns the saturated outputs."""
-    inv_g = 1.0 / (P.g_max - P.g_min)
+def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rng):
+    """Normalise, add the read noise, ADC (step ``adc``, 0 = ideal; clipping at
+    +-``bound``), rescale; returns the saturated outputs."""
+    inv_g = 1.0 / (g_max - g_min)
     if sigma > 0.0:
         key = rng[0]
         ctr = rng[1]
@@ -241,10 +242,8 @@ def _convert_outputs(buf, out, n_out, P, sigma, scale, rng):
     else:
         for o in range(n_out):
             buf[o] = buf[o] * inv_g
-    adc = P.adc_step
     saturated = 0
     if adc > 0.0:
-        bound = P.adc_bound
         inv_adc = 1.0 / adc
         unit = adc * scale
         for o in range(n_out):
@@ -275,8 +274,9 @@ def _read(state, x, out, transposed):
     on = P.out_noise
     sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
     start = state.rng[1]
-    saturated = _convert_outputs(state.ybuf, out, n_out, P, sigma,
-                                 P.w_max * xmax * state.alpha[0], state.rng)
+    saturated = _convert_outputs(state.ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
+                                 P.adc_bound, sigma, P.w_max * xmax * state.alpha[0],
+                                 state.rng)
     c = state.counters
     c[RNG_DRAWS] += np.int64(state.rng[1] - start)
     c[ANALOG_MACS] += nnz * n_out
