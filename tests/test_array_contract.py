@@ -430,3 +430,18 @@ def test_every_registered_device_has_a_cost_model():
         cml = CML.create(CMLConfig.for_arena(8), name, 0)
         assert budget.technology(cml) in budget.TECHNOLOGIES, name
         assert spec.device is DEVICES[cml.W_q.name]
+
+
+def test_per_matrix_options_are_declared_and_take_one_value_per_matrix():
+    from cml_edge.backends import DEVICES
+
+    assert DEVICES["fixed"].per_matrix == {"weight_exp": ("weight_exp",)}
+    assert DEVICES["crossbar"].per_matrix == {"w_max": ("w_max_q", "w_max_k", "w_max_v")}
+    assert DEVICES["float"].per_matrix == {}
+    W = np.full((4, 3), 0.01)
+    for index, e in enumerate((-7, -6, -5)):
+        assert make_array("int8", W, seed=0, index=index, weight_exp=[-7, -6, -5]).exponent == e
+        assert make_array("int8", W, seed=0, index=index, weight_exp=-6).exponent == -6
+        w_max = make_array("crossbar", W, seed=0, index=index, w_max_q=0.1, w_max_k=0.2,
+                           w_max_v=0.3).w_max
+        assert w_max == (0.1, 0.2, 0.3)[index]
