@@ -21,6 +21,7 @@ from typing import Any
 
 from cml_edge.baselines import mlp_inference_flops, mlp_parameter_count
 from cml_edge.core.cml import CML
+from cml_edge.errors import InputError
 
 FLOPS_PER_MAC = 2
 HOROWITZ = "Horowitz, ISSCC 2014, 45 nm"
@@ -49,38 +50,75 @@ COSTS: dict[str, Cost] = {
 }
 
 
+@dataclass(frozen=True)
+class CostModel:
+    """Which constants of :data:`COSTS` apply to an array technology, and to which counters.
+
+    Energy = (sum of ``mac_counters``) x ``mac`` + (sum of ``byte_counters``) x ``byte``
+    + (sum of ``pulse_counters``) x ``pulse``, each term only where its constant is named.
+    ``mac`` None: no sourced figure, the technology is not costed.
+    """
+
+    mac: str | None
+    mac_counters: tuple[str, ...] = ("macs", "update_macs")
+    byte: str | None = "sram_byte"
+    byte_counters: tuple[str, ...] = ("bytes_read", "bytes_written")
+    pulse: str | None = None
+    pulse_counters: tuple[str, ...] = ()
+
+
+NOT_COSTED = "not costed"
+TECHNOLOGIES: dict[str, CostModel] = {
+    "fp64": CostModel(None),  # no sourced float64 figure: not costed
+    "fp32": CostModel("fp32_mac"),
+    "int8": CostModel("int8_mac"),
+    "int16": CostModel("int32_mac"),
+    # analog MACs (the figure includes DAC/ADC conversions) and one write pulse per device
+    # pulse; no SRAM traffic
+    "analog": CostModel("analog_mac", ("analog_macs",), None, (), "write_pulse",
+                        ("device_pulses",)),
+    NOT_COSTED: CostModel(None),  # a device that declares no technology
+}
+"""The cost models a device can declare (``DeviceSpec.technology``)."""
+
+
 def technology(cml: CML) -> str:
-    """The cost model of the CML's arrays: fp64, fp32, int8, int16, or analog."""
-    arr = cml.W_q
-    if arr.name == "float":
-        return "fp64" if arr.state.W.dtype.itemsize == 8 else "fp32"
-    if arr.name == "fixed":
-        return "int8" if arr.weight_bits() <= 8 else "int16"
-    return "analog"
+    """The cost model of the CML's arrays, as their device declares it (a key of
+    :data:`TECHNOLOGIES`; ``not costed`` for a device that declares none). ValueError if
+    a device declares a technology that has no cost model here."""
+    from cml_edge.backends import device_of
 
-
-def _mac_cost(tech: str) -> Cost | None:
-    return {"fp32": COSTS["fp32_mac"], "int8": COSTS["int8_mac"], "int16": COSTS["int32_mac"],
-            "analog": COSTS["analog_mac"]}.get(tech)
+    tech = device_of(cml.W_q).technology_of(cml.W_q)
+    if tech is None:
+        return NOT_COSTED
+    if tech not in TECHNOLOGIES:
+        raise InputError(f"array kind {cml.W_q.name!r} declares technology {tech!r}, which "
+                         f"has no cost model (known: {', '.join(TECHNOLOGIES)})")
+    return tech
 
 
 def energy_pj(tech: str, counters: dict[str, int]) -> tuple[float | None, list[str]]:
     """Energy of the operations in ``counters`` on ``tech``, and the sources used.
 
     Digital arrays: MACs plus SRAM bytes moved. Analog arrays: analog MACs (whose
-    figure includes DAC/ADC conversions) plus one write pulse per device pulse. None
-    when the technology has no sourced MAC figure (float64).
+    figure includes DAC/ADC conversions) plus one write pulse per device pulse
+    (:data:`TECHNOLOGIES`). None when the technology has no sourced MAC figure (float64,
+    not costed); ValueError for a technology with no cost model.
     """
-    mac = _mac_cost(tech)
-    if mac is None:
+    if tech not in TECHNOLOGIES:
+        raise InputError(f"technology {tech!r} has no cost model (known: "
+                         f"{', '.join(TECHNOLOGIES)})")
+    model = TECHNOLOGIES[tech]
+    if model.mac is None:
         return None, []
-    if tech == "analog":
-        pulses = counters.get("device_pulses", 0)
-        total = counters.get("analog_macs", 0) * mac.pj + pulses * COSTS["write_pulse"].pj
-        return total, [mac.source, COSTS["write_pulse"].source]
-    moved = counters.get("bytes_read", 0) + counters.get("bytes_written", 0)
-    macs = counters.get("macs", 0) + counters.get("update_macs", 0)
-    return macs * mac.pj + moved * COSTS["sram_byte"].pj, [mac.source, COSTS["sram_byte"].source]
+    mac = COSTS[model.mac]
+    total = sum(counters.get(k, 0) for k in model.mac_counters) * mac.pj
+    sources = [mac.source]
+    for key, names in ((model.byte, model.byte_counters), (model.pulse, model.pulse_counters)):
+        if key is not None:
+            total = total + sum(counters.get(k, 0) for k in names) * COSTS[key].pj
+            sources.append(COSTS[key].source)
+    return total, sources
 
 
 # the CML ---------------------------------------------------------------------------

@@ -86,7 +86,7 @@ def test_state_round_trip_is_exact_and_continues_identically():
     d = arr.state_dict()
     twin = array_from_state_dict(d)
     assert isinstance(twin, CrossbarArray) and twin.options() == arr.options()
-    for a, b in zip(arr.state, twin.state):
+    for a, b in zip(map(np.asarray, arr.state), map(np.asarray, twin.state)):
         assert a.dtype == b.dtype and np.array_equal(a, b)
     for a in (arr, twin):
         a.commit()

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from cml_edge.backends import array_from_state_dict, make_array
 from cml_edge.backends.fixed import kernels as kern
 from cml_edge.backends.fixed.array import FixedArray
+from cml_edge.backends.fixed.config import FixedParams
 from cml_edge.backends.quant import ROUNDINGS, SaturationError, qmax_of
 from cml_edge.cli import main
 from cml_edge.core.cml import CML, CMLConfig
@@ -194,11 +195,11 @@ def test_strict_mode_raises_on_saturation():
 @FAST
 def test_per_walk_accumulates_exactly_then_rounds_once(case, n):
     arr, post, pre, lr = case
-    frac = int(arr.state.params[kern.P_FRAC])
+    frac = int(arr.state.params.frac)
     u = lsb_update(arr, post, pre, lr)
     scaled = u * 2.0 ** frac
     assume(np.all(scaled == np.round(scaled)))  # each update is a whole accumulator unit
-    assume(n * np.abs(scaled).max() < int(arr.state.params[kern.P_ACC_MAX]))
+    assume(n * np.abs(scaled).max() < int(arr.state.params.acc_max))
     old = arr.state.mantissa.astype(np.int64)
     for _ in range(n):
         arr.outer_update(post, pre, lr, defer=True)
@@ -220,7 +221,7 @@ def test_per_walk_accumulates_exactly_then_rounds_once(case, n):
 def test_sixteen_bit_accumulator_saturates_counted():
     # int8 with a 16-bit accumulator: F = 7, the accumulator holds +-(2^15 - 1) / 2^7 LSB
     arr = FixedArray.from_float(np.zeros((1, 1)), bits=8, acc_bits=16, weight_exp=0)
-    assert int(arr.state.params[kern.P_FRAC]) == 7
+    assert int(arr.state.params.frac) == 7
     for _ in range(3):  # 3 x 100 LSB = 300 > 255.99
         arr.outer_update(np.array([100.0]), np.array([1.0]), 1.0, defer=True)
     assert arr.counters["acc_saturations"] == 1
@@ -264,10 +265,10 @@ def test_matvec_golden():
 def test_read_accumulator_proof_and_detection():
     # int8 x 8-bit activations over 256 inputs: 256 x 127 x 127 < 2^31, no check needed
     arr = FixedArray.from_float(np.full((8, 256), 0.1), bits=8)
-    assert arr.state.params[kern.P_MV_CHECK] == 0 and arr.state.params[kern.P_RMV_CHECK] == 0
+    assert arr.state.params.mv_check == 0 and arr.state.params.rmv_check == 0
     # 16-bit weights and activations over 256 inputs can exceed 32 bits: checked, counted
     arr = FixedArray.from_float(np.full((2, 256), 1.0), bits=16, act_bits=16)
-    assert arr.state.params[kern.P_MV_CHECK] == 1
+    assert arr.state.params.mv_check == 1
     out = arr.matvec(np.ones(256))
     assert arr.counters["mac_saturations"] == 2
     # the true 256 = 2^36 x 2^-28 is clipped to (2^31 - 1) x 2^-28 ~ 8, not wrapped
@@ -292,7 +293,7 @@ def test_state_dict_round_trips_exactly(tmp_path):
     for arr in cml.arrays:
         back = array_from_state_dict(arr.state_dict())
         assert back.options() == arr.options()
-        for a, b in zip(arr.state, back.state):
+        for a, b in zip(map(np.asarray, arr.state), map(np.asarray, back.state)):
             assert a.dtype == b.dtype and np.array_equal(a, b)
     save_model(tmp_path / "m.npz", cml, {"arena": 10})
     loaded, _ = load_model(tmp_path / "m.npz")
@@ -309,7 +310,7 @@ def test_state_dict_rejects_corruption():
         array_from_state_dict(d)
     d = arr.state_dict()
     d["params"] = d["params"].copy()
-    d["params"][kern.P_QMAX] = 255
+    d["params"][FixedParams._fields.index("qmax")] = 255
     with pytest.raises(ValueError, match="parameters"):
         array_from_state_dict(d)
 

@@ -1,21 +1,33 @@
-"""The synaptic arrays and their registry: a backend name -> an array class and options.
+"""The synaptic arrays and their registry: one :class:`DeviceSpec` per device.
+
+Each device lives in one folder (``floating/``, ``fixed/``, ``crossbar/``) and declares
+itself in a ``DEVICE`` there (:class:`~cml_edge.backends.device.DeviceSpec`: its array
+class and kernels, config, backend names, presets, cost model, report systems). The
+line :data:`DEVICE_PACKAGES` below registers them; everything else is derived from the
+registry: :data:`BACKENDS` (what ``--backend NAME`` selects), ``make_array``,
+``array_from_state_dict``, the command-line options (:mod:`cml_edge.cli.args`), the
+budget's technology and the report's systems. What the devices share (the seam, the
+parameter record, config fields, fixed-point helpers) sits beside this file; how to add
+a device: README.md here.
 
 ``make_array(name, W, seed=..., index=...)`` programs a float matrix into the named
-backend. New devices register here and nothing else in the package changes.
+backend.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from importlib import import_module
 from typing import Any
 
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray
-from cml_edge.backends.crossbar.array import CrossbarArray
-from cml_edge.backends.fixed.array import FixedArray
-from cml_edge.backends.floating.array import FloatArray
+from cml_edge.backends.device import Backend, DeviceSpec
+from cml_edge.backends.dispatch import register, unregister
 from cml_edge.errors import InputError
+
+DEVICE_PACKAGES = ("floating", "fixed", "crossbar")  # one entry per device folder
 
 
 @dataclass(frozen=True)
@@ -25,23 +37,43 @@ class BackendSpec:
     array_class: type[SynapticArray]
     options: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    device: DeviceSpec | None = None
 
 
-BACKENDS: dict[str, BackendSpec] = {
-    "float": BackendSpec(FloatArray, {"dtype": "float64"}, "float64 reference"),
-    "float32": BackendSpec(FloatArray, {"dtype": "float32"}, "float32 weights and arithmetic"),
-    "int8": BackendSpec(FixedArray, {"bits": 8}, "Loihi-style int8 weights, integer learning"),
-    "int16": BackendSpec(FixedArray, {"bits": 16}, "int16 weights, integer learning"),
-    "fixed": BackendSpec(FixedArray, {}, "fixed point of --bits N (2..16) bits"),
-    "crossbar": BackendSpec(CrossbarArray, {"preset": CrossbarArray.DEFAULT_PRESET},
-                            "memristive crossbar: --preset ideal|pcm|reram, --levels, --set"),
-}
+DEVICES: dict[str, DeviceSpec] = {}
+"""Device name (the ``__backend__`` of a saved state) -> its spec."""
+BACKENDS: dict[str, BackendSpec] = {}
+"""Backend name -> array class and options, derived from :data:`DEVICES`."""
+ARRAY_CLASSES: dict[str, type[SynapticArray]] = {}
+"""Device name -> array class, derived from :data:`DEVICES`."""
 
-ARRAY_CLASSES: dict[str, type[SynapticArray]] = {
-    "float": FloatArray,
-    "fixed": FixedArray,
-    "crossbar": CrossbarArray,
-}
+
+def register_device(device: DeviceSpec) -> DeviceSpec:
+    """Add ``device``: its kernels to the seam, its name and backend names to the
+    registry. ValueError if a name is taken."""
+    taken = ({device.name} & set(DEVICES)) | (set(device.backends) & set(BACKENDS))
+    if taken:
+        raise ValueError(f"device {device.name!r}: name {sorted(taken)[0]!r} is taken")
+    register(device.array_class.State, device.kernels)
+    DEVICES[device.name] = device
+    ARRAY_CLASSES[device.name] = device.array_class
+    for name, backend in device.backends.items():
+        BACKENDS[name] = BackendSpec(device.array_class, device.backend_options(name),
+                                     backend.description, device)
+    return device
+
+
+def unregister_device(device: DeviceSpec | str) -> None:
+    """Remove a registered device (by spec or name) and its backend names."""
+    spec = DEVICES.pop(device if isinstance(device, str) else device.name)
+    ARRAY_CLASSES.pop(spec.name, None)
+    for name in spec.backends:
+        BACKENDS.pop(name, None)
+    unregister(spec.array_class.State)
+
+
+for _package in DEVICE_PACKAGES:
+    register_device(import_module(f"{__name__}.{_package}").DEVICE)
 
 
 def backend_spec(name: str) -> BackendSpec:
@@ -54,6 +86,14 @@ def backend_spec(name: str) -> BackendSpec:
         ) from None
 
 
+def device_of(array: SynapticArray) -> DeviceSpec:
+    """The registered device of ``array``."""
+    try:
+        return DEVICES[array.name]
+    except KeyError:
+        raise InputError(f"array kind {array.name!r} is not registered") from None
+
+
 def make_array(name: str, W: np.ndarray, *, seed: int, index: int,
                **overrides: Any) -> SynapticArray:
     """Program ``W`` into a new array of backend ``name`` (options overridable)."""
@@ -62,12 +102,19 @@ def make_array(name: str, W: np.ndarray, *, seed: int, index: int,
 
 
 def array_from_state_dict(d: dict[str, np.ndarray]) -> SynapticArray:
-    """Rebuild any registered array from its ``state_dict``."""
+    """Rebuild any registered array from its ``state_dict`` (or an older release's)."""
     kind = str(d.get("__backend__", ""))
-    if kind not in ARRAY_CLASSES:
-        raise InputError(f"unknown array kind {kind!r}; known: {', '.join(sorted(ARRAY_CLASSES))}")
-    return ARRAY_CLASSES[kind].from_state_dict(d)
+    if kind not in DEVICES:
+        raise InputError(f"unknown array kind {kind!r}; known: {', '.join(sorted(DEVICES))}")
+    return DEVICES[kind].array_class.from_state_dict(d)
 
 
-__all__ = ["BACKENDS", "BackendSpec", "SynapticArray", "array_from_state_dict", "backend_spec",
-           "make_array"]
+def report_systems() -> list[tuple[str, str, dict[str, Any]]]:
+    """The systems of the budget report, (label, backend, options), device by device."""
+    return [(label, backend, dict(options)) for device in DEVICES.values()
+            for label, backend, options in device.report]
+
+
+__all__ = ["BACKENDS", "DEVICES", "Backend", "BackendSpec", "DeviceSpec", "SynapticArray",
+           "array_from_state_dict", "backend_spec", "device_of", "make_array",
+           "register_device", "report_systems", "unregister_device"]

@@ -2,11 +2,14 @@
 
 An array of shape (rows, cols) stores a weight matrix W in whatever form its device
 keeps it (floats, integer mantissas, conductance pairs) and offers ``matvec``,
-``rmatvec``, ``outer_update``, ``commit``, ``to_float``, ``counters`` and an exact
-``state_dict`` round trip. Its whole mutable state is one ``NamedTuple`` of NumPy
-arrays (``self.state``); its arithmetic is the four ``@njit`` kernels it registered
-with :mod:`cml_edge.backends.dispatch`, which the Python methods below and the
-compiled loops both call, so the two paths cannot disagree.
+``rmatvec``, ``outer_update``, ``commit``, ``sigmoid``, ``to_float``, ``counters`` and an
+exact ``state_dict`` round trip. Its whole mutable state is one ``NamedTuple``
+(``self.state``) of NumPy arrays and, optionally, the device's parameter record (a
+``NamedTuple`` of scalars, :mod:`cml_edge.backends.params`). Its arithmetic is the five
+``@njit`` kernels of its device (``matvec``, ``rmatvec``, ``outer_update``, ``commit``,
+``sigmoid``), registered for its state class in :mod:`cml_edge.backends.dispatch`: the
+seam. The Python methods below and the compiled loops both call them there, so the two
+paths cannot disagree.
 """
 
 from __future__ import annotations
@@ -17,24 +20,33 @@ from typing import Any, ClassVar
 import numpy as np
 
 from cml_edge.backends.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_rmatvec, sa_sigmoid
+from cml_edge.backends.params import is_record, record_from_array, record_names, record_to_array
 from cml_edge.errors import InputError
 
 
 class SynapticArray:
-    """Base class of the synaptic arrays (the seam of DESIGN.md).
+    """Base class of the synaptic arrays: the seam between the CML and a device.
 
-    Subclasses set ``name``, ``State`` (a NamedTuple class whose first field is a
-    (rows, cols) array, which gives the shape, and whose last field is ``counters``, an
-    int64 vector indexed like ``counter_names``), implement ``from_float``,
-    ``to_float`` and ``options``, and register their five kernels
-    (:class:`cml_edge.backends.dispatch.Kernels`). Optional: ``elapse`` (drift),
-    ``add_cli_arguments(group)`` / ``cli_options(args)`` classmethods for the
-    backend's own command-line options.
+    The seam is the five kernels every device provides (``matvec``, ``rmatvec``,
+    ``outer_update``, ``commit``, ``sigmoid``; :mod:`cml_edge.backends.dispatch`), which
+    the CML calls through this class and the compiled loops call directly. Subclasses
+    set ``name``, ``State`` (a NamedTuple class whose first field is a (rows, cols)
+    array, which gives the shape, and whose last field is ``counters``, an int64 vector
+    indexed like ``counter_names``), implement ``from_float``, ``to_float``,
+    ``options`` and ``config``, and are registered with their kernels by one
+    :class:`~cml_edge.backends.device.DeviceSpec` (:func:`cml_edge.backends.register_device`).
+    Optional: ``elapse`` (drift), ``_restore`` (checks of a loaded state) and
+    ``_upgrade`` (a state dict of an older layout).
+
+    Counters every device keeps (the contract, ``tests/test_array_contract.py``):
+    ``matvecs``, ``rmatvecs``, ``outer_updates`` and ``commits`` count the calls, one
+    each; no counter ever decreases (until ``reset_counters``).
     """
 
     name: ClassVar[str]
     State: ClassVar[type]
     counter_names: ClassVar[tuple[str, ...]]
+    config: Any  # the array's device config (its device's config class), attribute or property
 
     def __init__(self, state: Any) -> None:
         self.state = state
@@ -113,8 +125,19 @@ class SynapticArray:
 
     # persistence ------------------------------------------------------------------
     def state_dict(self) -> dict[str, np.ndarray]:
-        """Every state array, plus the backend name and options, for an exact restore."""
-        d = {f: np.array(getattr(self.state, f)) for f in self.State._fields}
+        """Every state array, plus the backend name and options, for an exact restore.
+
+        A parameter record is stored as one vector under its field's name and its field
+        names under ``__<field>__`` (:func:`cml_edge.backends.params.record_to_array`).
+        """
+        d = {}
+        for f in self.State._fields:
+            v = getattr(self.state, f)
+            if is_record(v):
+                d[f] = record_to_array(v)
+                d[f"__{f}__"] = record_names(v)
+            else:
+                d[f] = np.array(v)
         d["__backend__"] = np.array(self.name)
         d["__options__"] = np.array(json.dumps(self.options(), sort_keys=True))
         return d
@@ -125,6 +148,7 @@ class SynapticArray:
         backend = str(d.get("__backend__", ""))
         if backend != cls.name:
             raise InputError(f"state is of backend {backend!r}, expected {cls.name!r}")
+        d = cls._upgrade(dict(d))
         missing = [f for f in cls.State._fields if f not in d]
         if missing:
             raise InputError(f"state of backend {cls.name!r} lacks {', '.join(missing)}")
@@ -132,6 +156,9 @@ class SynapticArray:
         fields = []
         for f in cls.State._fields:
             a, t = np.asarray(d[f]), getattr(template, f)
+            if is_record(t):
+                fields.append(record_from_array(type(t), a, d.get(f"__{f}__"), f))
+                continue
             if a.dtype != t.dtype or a.ndim != t.ndim:
                 raise InputError(
                     f"field {f!r}: {a.dtype}[{a.ndim}d] where {t.dtype}[{t.ndim}d] is expected"
@@ -143,7 +170,7 @@ class SynapticArray:
                              f"{len(cls.counter_names)} are expected")
         shape = state[0].shape
         for f, a in zip(cls.State._fields, state):
-            if a.ndim == 2 and a.shape != shape:
+            if not is_record(a) and a.ndim == 2 and a.shape != shape:
                 raise InputError(f"field {f!r} has shape {a.shape}, expected {shape}")
         return cls._restore(state, json.loads(str(d["__options__"])))
 
@@ -155,6 +182,12 @@ class SynapticArray:
     @classmethod
     def _restore(cls, state: Any, options: dict[str, Any]) -> SynapticArray:
         return cls(state)
+
+    @classmethod
+    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``d`` in the current state layout, converted from an older one (files saved by
+        an earlier release). Default: unchanged."""
+        return d
 
 
 def _vector(x: np.ndarray, n: int) -> np.ndarray:

@@ -77,3 +77,10 @@ def register(state_class: type, kernels: Kernels) -> None:
     """Make ``kernels`` the implementation of the seam for states of ``state_class``."""
     for function, kernel in zip(SEAM, kernels):
         function.register(state_class, kernel)
+
+
+def unregister(state_class: type) -> None:
+    """Remove the seam's kernels for ``state_class`` (a device taken out of the registry;
+    loops compiled for it before keep their copy)."""
+    for function in SEAM:
+        function.implementations.pop(state_class, None)

@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from tqdm import tqdm
 
-from cml_edge.backends import BACKENDS, backend_spec
+from cml_edge.backends import BACKENDS, DEVICES, DeviceSpec, backend_spec
+from cml_edge.backends.fields import field_names, parse_setting, scalar_kind
 from cml_edge.errors import InputError
 
 
@@ -79,33 +81,118 @@ def command_line() -> str:
 
 
 # the synaptic-array options -------------------------------------------------------------
-# the option names each array class adds, to refuse one given to another backend
-_BACKEND_OPTIONS: dict[type, list[str]] = {}
+# Built from the registry: every config field of every device is settable with
+# --set FIELD=VALUE, a field declared with a flag (field metadata "flag", e.g. --bits) also
+# by that flag, and a device with selectable presets takes --preset. No device writes code
+# for its command line.
+SET_DEST = "device_set"
+
+
+@dataclass
+class _Flag:
+    """A device flag: its argparse keywords, and per device name the field it sets."""
+
+    dest: str
+    kwargs: dict[str, Any]
+    targets: dict[str, str] = field(default_factory=dict)
+    noun: str = "values"
+
+
+def _device_flags() -> dict[str, _Flag]:
+    """flag -> what it sets on each device that declares it (registry order)."""
+    table: dict[str, _Flag] = {}
+
+    def add(flag: str, device: DeviceSpec, target: str, kwargs: dict[str, Any],
+            noun: str = "values") -> None:
+        entry = table.setdefault(flag, _Flag(flag[2:].replace("-", "_"), kwargs, noun=noun))
+        entry.targets[device.name] = target
+
+    for device in DEVICES.values():
+        if device.selectable_presets:
+            default = next(b.preset for b in device.backends.values() if not b.fixed)
+            add("--preset", device, "preset", {
+                "default": None, "help": f"{device.name} device preset: "
+                f"{', '.join(device.presets)} (default {default})"})
+        for f in fields(device.config_class):
+            flag = f.metadata.get("flag")
+            if flag is None:
+                continue
+            kind = scalar_kind(device.config_class, f.name)
+            kwargs: dict[str, Any] = {"default": None, "help": f.metadata.get("help")}
+            if kind is bool:
+                kwargs["action"] = "store_true"
+            else:
+                kwargs["type"] = kind or str
+                if "metavar" in f.metadata:
+                    kwargs["metavar"] = f.metadata["metavar"]
+                if f.metadata.get("per_matrix") == "each":
+                    kwargs["nargs"] = "+"
+            add(flag, device, f.name, kwargs, f.metadata.get("noun", "values"))
+    return table
 
 
 def add_backend(p: argparse.ArgumentParser) -> None:
-    """``--backend NAME`` and every array class's own options, in one group each."""
+    """``--backend NAME``, each device's flags in a group of its own, and ``--set``."""
     p.add_argument("--backend", default="float",
                    help=f"synaptic array: {', '.join(sorted(BACKENDS))} (default float)")
-    seen: set[type] = set()
-    for spec in BACKENDS.values():
-        cls = spec.array_class
-        if cls not in seen and hasattr(cls, "add_cli_arguments"):
-            seen.add(cls)
-            group = p.add_argument_group(f"{cls.name} array options")
-            cls.add_cli_arguments(group)
-            _BACKEND_OPTIONS[cls] = [a.dest for a in group._group_actions]
+    groups: dict[str, argparse._ArgumentGroup] = {}
+    for flag, entry in _device_flags().items():
+        owner = next(iter(entry.targets))
+        if owner not in groups:
+            groups[owner] = p.add_argument_group(f"{owner} array options")
+        groups[owner].add_argument(flag, dest=entry.dest, **entry.kwargs)
+    fields_by_device = "; ".join(f"{name}: {', '.join(field_names(d.config_class))}"
+                                 for name, d in DEVICES.items())
+    p.add_argument("--set", dest=SET_DEST, action="append", default=[], metavar="FIELD=VALUE",
+                   help="set a field of the backend's device, repeatable (a per-matrix "
+                        "field takes one value or three, comma-separated); fields: "
+                        + fields_by_device)
 
 
 def backend_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The options of ``--backend``'s array class; refuses another class's options."""
+    """The options given for ``--backend``'s device, validated now (before any training);
+    refuses another device's flag and a value that contradicts the backend name."""
     spec = backend_spec(args.backend)
-    cls = spec.array_class
-    for other, dests in _BACKEND_OPTIONS.items():
-        if other is cls:
+    device = spec.device
+    assert device is not None
+    options: dict[str, Any] = {}
+    shown: dict[str, str] = {}  # option -> how it was given, for the messages
+    for flag, entry in _device_flags().items():
+        value = getattr(args, entry.dest, None)
+        if value is None or value is False or value == []:
             continue
-        for dest in dests:
-            if getattr(args, dest, None) not in (None, False, []):
-                raise InputError(f"--{dest.replace('_', '-')} is an option of the {other.name} "
-                                 f"arrays, not of --backend {args.backend}")
-    return cls.cli_options(args) if hasattr(cls, "cli_options") else {}
+        target = entry.targets.get(device.name)
+        if target is None or (target == "preset" and device.default_preset(args.backend)
+                              is None):
+            owners = " and ".join(entry.targets)
+            raise InputError(f"{flag} is an option of the {owners} arrays, not of --backend "
+                             f"{args.backend}")
+        if isinstance(value, list):
+            if len(value) not in (1, 3):
+                raise InputError(f"{flag} takes 1 or 3 {entry.noun} (W_q W_k W_v), "
+                                 f"got {len(value)}")
+            value = value[0] if len(value) == 1 else list(value)
+        options[target] = value
+        shown[target] = flag if value is True else \
+            f"{flag} {' '.join(map(str, value)) if isinstance(value, list) else value}"
+    for text in getattr(args, SET_DEST, None) or []:
+        name, value = parse_setting(device.config_class, text, device.name)
+        options[name] = value
+        shown[name] = f"--set {text.strip()}"
+    for name, fixed in device.fixes(args.backend).items():
+        if name in options and options[name] != fixed:
+            raise InputError(f"{shown[name]} conflicts with --backend {args.backend} "
+                             f"({name} {fixed}); {_instead(device, name, options[name], shown)}")
+    device.make_config(**{**spec.options, **options})  # validate now, as make_array will
+    return options
+
+
+def _instead(device: DeviceSpec, name: str, value: Any, shown: dict[str, str]) -> str:
+    """What to use instead of a backend name that fixes ``name`` to another value."""
+    for backend in device.backends:
+        if device.fixes(backend).get(name) == value:
+            return f"use --backend {backend}"
+    for backend in device.backends:
+        if name not in device.fixes(backend):
+            return f"use --backend {backend} {shown[name]}"
+    return f"allowed: {name} as the backend fixes it"

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__, budget
-from cml_edge.backends import BACKENDS
+from cml_edge.backends import BACKENDS, report_systems
 from cml_edge.baselines import load_results
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.arena import GridArena
@@ -39,16 +39,8 @@ SCHEMA_VERSION = 1
 N_EXAMPLES = 3
 DQN_RESULTS = Path(__file__).resolve().parents[2] / "hw_reports" / "baselines" / "dqn_results.json"
 
-# (label, backend, options): the systems of the main table, when their backend exists
-SYSTEMS: list[tuple[str, str, dict[str, Any]]] = [
-    ("float64", "float", {}),
-    ("float32", "float32", {}),
-    ("int16", "int16", {}),
-    ("int8", "int8", {}),
-    ("crossbar-ideal", "crossbar", {"preset": "ideal"}),
-    ("crossbar-pcm", "crossbar", {"preset": "pcm"}),
-    ("crossbar-reram", "crossbar", {"preset": "reram"}),
-]
+# (label, backend, options): the systems of the main table, as each device declares them
+SYSTEMS: list[tuple[str, str, dict[str, Any]]] = report_systems()
 # precision sweeps drawn as figures: (figure, label, backend, options)
 SWEEPS: list[tuple[str, str, str, dict[str, Any]]] = [
     *[("bits", f"{b} bits {r}", "fixed", {"bits": b, "rounding": r})

@@ -7,14 +7,14 @@ is this array's weight-to-conductance scale: the configured ``w_max_q`` / ``w_ma
 ``w_max_v`` for the array's index (0, 1, 2 = W_q, W_k, W_v), or, when that is 0,
 ``w_headroom`` x max|W| of the matrix it was programmed with. The reads, updates, noise,
 drift and faults are the kernels' (:mod:`cml_edge.backends.crossbar.kernels`); the device
-numbers are a
-:class:`~cml_edge.backends.crossbar_config.DeviceConfig` (presets ``ideal``, ``pcm``,
-``reram``).
+numbers are a :class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``,
+``pcm``, ``reram``), which the kernels read as the
+:class:`~cml_edge.backends.crossbar.config.CrossbarParams` record.
 """
 
 from __future__ import annotations
 
-import argparse
+import json
 import math
 from typing import Any, NamedTuple
 
@@ -23,13 +23,14 @@ import numpy as np
 from cml_edge.backends.base import SynapticArray
 from cml_edge.backends.crossbar import kernels as kern
 from cml_edge.backends.crossbar.config import (
-    FIELD_NAMES,
+    DEFAULT_PRESET,
     PRESETS,
+    CrossbarParams,
     DeviceConfig,
+    crossbar_params,
     make_config,
-    parse_setting,
 )
-from cml_edge.backends.dispatch import Kernels, register
+from cml_edge.backends.params import record_names, record_to_array
 from cml_edge.errors import InputError
 from cml_edge.protocol import STREAM_DEVICE
 from cml_edge.rng import stream_key
@@ -43,7 +44,9 @@ class CrossbarState(NamedTuple):
     nu: np.ndarray  # (2, rows, cols) float64: drift exponents of G+, G-
     age: np.ndarray  # (2, rows, cols) float64: seconds since each device's last write
     stuck: np.ndarray  # (2, rows, cols) int8: 0 working, 1 stuck at g_min, 2 at g_max
-    params: np.ndarray  # float64[N_PARAMS]: device parameters (kernels' P_* indices)
+    params: CrossbarParams  # the device's numbers as the kernels read them (config.py)
+    alpha: np.ndarray  # float64[1]: drift-compensation factor of the outputs (1 until drift)
+    elapsed: np.ndarray  # float64[1]: seconds let pass with ``elapse``
     rng: np.ndarray  # uint64[2]: stream key, draw counter
     xbuf: np.ndarray  # float64[max(rows, cols)]: scaled, converted inputs of a read
     ybuf: np.ndarray  # float64[max(rows, cols)]: analog sums of a read
@@ -51,9 +54,6 @@ class CrossbarState(NamedTuple):
     idx: np.ndarray  # int64[max(rows, cols)]: the columns that fired
     counters: np.ndarray  # int64[N_COUNTERS]
 
-
-register(CrossbarState, Kernels(kern.xbar_matvec, kern.xbar_rmatvec, kern.xbar_outer_update,
-                                kern.xbar_commit, kern.xbar_sigmoid))
 
 
 def _laid_out(a: np.ndarray) -> np.ndarray:
@@ -79,7 +79,7 @@ class CrossbarArray(SynapticArray):
 
     name = "crossbar"
     State = CrossbarState
-    DEFAULT_PRESET = "pcm"
+    DEFAULT_PRESET = DEFAULT_PRESET
     counter_names = (
         "matvecs", "rmatvecs", "analog_macs", "dac_conversions", "adc_conversions",
         "adc_saturations", "outer_updates", "acc_writes", "line_pulses", "coincidences",
@@ -110,7 +110,7 @@ class CrossbarArray(SynapticArray):
         if not np.isfinite(W).all():
             raise InputError("a crossbar cannot be programmed with NaN or infinite weights")
         w_max = config.w_max_for(index) or config.w_headroom * float(np.abs(W).max()) or 1.0
-        state = _new_state(W.shape, config.to_params(w_max),
+        state = _new_state(W.shape, crossbar_params(config, w_max),
                            stream_key(int(seed), STREAM_DEVICE + int(index)))
         kern.xbar_program(state, W)
         return cls(state, config, preset)
@@ -126,7 +126,7 @@ class CrossbarArray(SynapticArray):
                                acc=_laid_out(state.acc))
         n = max(state.Gp.shape)
         for f, size in (("xbuf", n), ("ybuf", n), ("idx", n), ("bits", sum(state.Gp.shape)),
-                        ("params", kern.N_PARAMS), ("rng", 2)):
+                        ("rng", 2), ("alpha", 1), ("elapsed", 1)):
             if getattr(state, f).shape != (size,):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected ({size},)")
@@ -134,13 +134,38 @@ class CrossbarArray(SynapticArray):
             if getattr(state, f).shape != (k, *state.Gp.shape):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected {(k, *state.Gp.shape)}")
-        return cls(state, make_config(preset, **options), preset)
+        config = make_config(preset, **options)
+        if crossbar_params(config, state.params.w_max) != state.params:
+            raise InputError("crossbar parameters do not match the saved options")
+        return cls(state, config, preset)
+
+    @classmethod
+    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """A state saved before the parameter record (no ``__params__``): ``params`` was
+        one float64 vector of 32 hand-numbered slots, :data:`LEGACY_PARAMS` in that order,
+        with the run-time alpha and elapsed among them. They move to their state arrays;
+        the record is rebuilt from the saved options and the saved w_max, and the old
+        vector must equal that record's legacy view, or the file is refused."""
+        if "__params__" in d or "params" not in d:
+            return d
+        old = np.asarray(d["params"])
+        if old.dtype != np.float64 or old.shape != (len(LEGACY_PARAMS),):
+            raise InputError(f"field 'params' has shape {old.shape}, expected "
+                             f"({len(LEGACY_PARAMS)},)")
+        slots = dict(zip(LEGACY_PARAMS, old.tolist()))
+        options = dict(json.loads(str(d["__options__"])))
+        preset = options.pop("preset", cls.DEFAULT_PRESET)
+        record = crossbar_params(make_config(preset, **options), slots["w_max"])
+        if not np.array_equal(legacy_params(record, slots["alpha"], slots["elapsed"]), old):
+            raise InputError("crossbar parameters do not match the saved options")
+        return {**d, "params": record_to_array(record), "__params__": record_names(record),
+                "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])}
 
     # the seam extras ----------------------------------------------------------------
     def to_float(self) -> np.ndarray:
         """The weights the array holds: (G+ - G-) / g_per_w, times the drift compensation."""
         p = self.state.params
-        scale = p[kern.P_W_MAX] / (p[kern.P_G_MAX] - p[kern.P_G_MIN]) * p[kern.P_ALPHA]
+        scale = p.w_max / (p.g_max - p.g_min) * self.state.alpha[0]
         return np.ascontiguousarray((self.state.Gp - self.state.Gm) * scale)
 
     def elapse(self, seconds: float) -> None:
@@ -154,47 +179,18 @@ class CrossbarArray(SynapticArray):
     @property
     def w_max(self) -> float:
         """The weight of a full conductance swing (the weight-to-conductance scale)."""
-        return float(self.state.params[kern.P_W_MAX])
+        return float(self.state.params.w_max)
 
     @property
     def dw_min(self) -> float:
         """The nominal weight change of one coincidence (0 when continuous)."""
-        return float(self.state.params[kern.P_DW_MIN])
+        return float(self.state.params.dw_min)
 
     def conductances(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of (G+, G-) in micro-siemens."""
         return np.array(self.state.Gp), np.array(self.state.Gm)
 
-    # command line -------------------------------------------------------------------
-    @classmethod
-    def add_cli_arguments(cls, group: argparse._ArgumentGroup) -> None:
-        group.add_argument("--preset", default=None,
-                           help=f"crossbar device preset: {', '.join(PRESETS)} "
-                                f"(default {cls.DEFAULT_PRESET})")
-        group.add_argument("--levels", type=int, default=None, metavar="N",
-                           help="crossbar conductance levels per device (>= 2; 0 = continuous)")
-        group.add_argument("--set", dest="crossbar_set", action="append", default=[],
-                           metavar="FIELD=VALUE",
-                           help="override a crossbar device field, repeatable; fields: "
-                                + ", ".join(FIELD_NAMES))
-
-    @classmethod
-    def cli_options(cls, args: argparse.Namespace) -> dict[str, Any]:
-        """The options from ``--preset``, ``--levels`` and ``--set``, validated now."""
-        options: dict[str, Any] = {}
-        if getattr(args, "preset", None) is not None:
-            options["preset"] = args.preset
-        if getattr(args, "levels", None) is not None:
-            options["levels"] = args.levels
-        for text in getattr(args, "crossbar_set", None) or []:
-            name, value = parse_setting(text)
-            options[name] = value
-        overrides = {k: v for k, v in options.items() if k != "preset"}
-        make_config(options.get("preset", cls.DEFAULT_PRESET), **overrides)
-        return options
-
-
-def _new_state(shape: tuple[int, int], params: np.ndarray, key: Any) -> CrossbarState:
+def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
     rows, cols = shape
     n = max(rows, cols)
     order = "F"
@@ -202,8 +198,33 @@ def _new_state(shape: tuple[int, int], params: np.ndarray, key: Any) -> Crossbar
         Gp=np.zeros(shape, order=order), Gm=np.zeros(shape, order=order),
         acc=np.zeros(shape, order=order), step=np.ones((4, rows, cols)),
         nu=np.zeros((2, rows, cols)), age=np.zeros((2, rows, cols)),
-        stuck=np.zeros((2, rows, cols), np.int8), params=params,
+        stuck=np.zeros((2, rows, cols), np.int8), params=params, alpha=np.ones(1),
+        elapsed=np.zeros(1),
         rng=np.array([key, 0], dtype=np.uint64), xbuf=np.zeros(n), ybuf=np.zeros(n),
         bits=np.zeros(rows + cols, np.int64), idx=np.zeros(n, np.int64),
         counters=np.zeros(kern.N_COUNTERS, np.int64),
     )
+
+
+# the layout before the parameter record ---------------------------------------------------
+LEGACY_PARAMS = (
+    "g_min", "g_max", "dG", "w_max", "g_per_w", "dw_min", "update", "commit", "bl_max",
+    "dw_min_std", "bounds", "prog_noise", "prog_c0", "prog_c1", "prog_c2", "prog_gref",
+    "read_noise", "out_noise", "dac_step", "adc_step", "adc_bound", "drift_t0",
+    "drift_compensation", "alpha", "elapsed", "dw_min_dtod", "up_down", "up_down_dtod",
+    "drift_nu", "drift_nu_std", "stuck_low", "stuck_high",
+)
+"""The 32 slots of the float64 ``params`` vector of files saved before the record (the old
+``P_*`` indices 0..31, in order). Slot ``adc_bound`` held inf when there was no ADC."""
+
+
+def legacy_params(record: Any, alpha: float, elapsed: float) -> np.ndarray:
+    """The old 32-slot vector of ``record`` (:data:`LEGACY_PARAMS`)."""
+    values = {**record._asdict(), "alpha": alpha, "elapsed": elapsed}
+    if record.adc_bits <= 0:
+        values["adc_bound"] = math.inf
+    return np.array([float(values[name]) for name in LEGACY_PARAMS])
+
+
+# PRESETS is re-exported: cml_edge.experiments.backends looks for it beside the array class
+__all__ = ["LEGACY_PARAMS", "PRESETS", "CrossbarArray", "CrossbarState", "legacy_params"]

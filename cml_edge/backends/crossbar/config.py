@@ -3,8 +3,9 @@
 Every number a crossbar emulation depends on is a field of :class:`DeviceConfig`
 (frozen, documented, validated); a preset is a named set of field values; every field
 can be overridden (``--set field=value`` on the command line, ``--levels N``,
-``--preset NAME``). The kernels cannot read a dataclass, so :meth:`DeviceConfig.to_params`
-packs the numeric fields into the float64 vector the state carries.
+``--preset NAME``). The kernels cannot read a dataclass: they read
+:class:`CrossbarParams`, the record derived from the config's numeric fields plus the
+array's derived quantities (:func:`crossbar_params`; :mod:`cml_edge.backends.params`).
 
 Presets and where their numbers come from (the figures are collected in
 ``shared/reference/crossbar.md``):
@@ -41,18 +42,24 @@ sweep them with ``--set stuck_low=...``.
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass
 from typing import Any
 
-import numpy as np
-
-from cml_edge.backends.crossbar import kernels as kern
+from cml_edge.backends.fields import (
+    check_types,
+    field_names,
+    matrix_value,
+    option,
+    resolve,
+)
+from cml_edge.backends.fields import parse_setting as _parse_setting
+from cml_edge.backends.params import build_record, kernel_record
 from cml_edge.errors import InputError
 
 UPDATES = ("analog", "pulsed")
 COMMITS = ("program", "pulse")
 BOUNDS = ("hard", "soft")
+DEFAULT_PRESET = "pcm"
 
 
 @dataclass(frozen=True)
@@ -64,27 +71,29 @@ class DeviceConfig:
     """Lowest device conductance (uS)."""
     g_max: float = 25.0
     """Highest device conductance (uS)."""
-    levels: int = 0
+    levels: int = option(0, flag="--levels", metavar="N",
+                         help="crossbar conductance levels per device (>= 2; 0 = continuous)")
     """Programmable states per device, evenly spaced on [g_min, g_max]; 0 = continuous.
     One pulse moves a device by one level: dw_min = 2 w_max / (levels - 1)."""
-    w_headroom: float = 1.0
+    w_headroom: float = option(1.0, kernel=False)
     """Automatic scale: w_max = w_headroom x max|W| of the matrix programmed (aihwkit maps
     max|W| to g_max: headroom 1). Weights that later grow past w_max clip at the bounds."""
-    w_max_q: float = 0.0
+    w_max_q: float = option(0.0, per_matrix=("w_max", 0))
     """Weight of a full conductance swing for W_q (index 0); 0 = automatic (w_headroom)."""
-    w_max_k: float = 0.0
+    w_max_k: float = option(0.0, per_matrix=("w_max", 1))
     """The same for W_k (index 1)."""
-    w_max_v: float = 0.0
-    """The same for W_v (index 2). The CML's W_v decays from its N(0, 0.1^2) init to
-    W_q delta (entries ~0.003, max ~0.01), so the device presets set 0.02: resolution
-    where the learned weights live; the init is clipped at programming."""
+    w_max_v: float = option(0.0, per_matrix=("w_max", 2))
+    """The same for W_v (index 2). The CML's learned W_v is far smaller than its
+    N(0, 0.1^2) init (W_v a learns W_q delta), so the device presets set 0.02: resolution
+    where the learned weights live; the init is clipped at programming (the sizes
+    measured, and what this does to convergence: README, "On the crossbar")."""
 
     # the in-situ update --------------------------------------------------------------
-    update: str = "analog"
+    update: str = option("analog", choices=UPDATES)
     """In-place update (``defer`` False): ``pulsed`` stochastic coincidences
     (Gokmen & Vlasov 2016) or ``analog`` (the exact change; with a grid, stochastically
     rounded to it: an ideal device)."""
-    commit: str = "program"
+    commit: str = option("program", choices=COMMITS)
     """Per-walk schedule (``defer`` True): the update is summed in a digital accumulator
     and, at commit, ``pulse``: n = trunc(acc / dw_min) pulses sent to each pair, the
     remainder kept in the accumulator (mixed precision, Nandakumar et al. 2020); or
@@ -100,7 +109,7 @@ class DeviceConfig:
     """Mean up/down asymmetry: up steps x (1 + a), down steps x (1 - a)."""
     up_down_dtod: float = 0.0
     """Device-to-device spread of the asymmetry a (std)."""
-    bounds: str = "hard"
+    bounds: str = option("hard", choices=BOUNDS)
     """``hard``: a device clips at g_min / g_max; ``soft``: the step shrinks linearly to
     zero at the bound it moves toward (1 at mid-range)."""
 
@@ -153,77 +162,44 @@ class DeviceConfig:
     # derived -------------------------------------------------------------------------
     def w_max_for(self, index: int) -> float:
         """The configured w_max of array ``index`` (0: auto)."""
-        return (self.w_max_q, self.w_max_k, self.w_max_v)[index] if 0 <= index < 3 else 0.0
+        return matrix_value(self, "w_max", index, default=0.0)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
-    def to_params(self, w_max: float) -> np.ndarray:
-        """The float64 parameter vector of the kernels, for an array of scale ``w_max``."""
-        p = np.zeros(kern.N_PARAMS)
-        grange = self.g_max - self.g_min
-        dG = grange / (self.levels - 1) if self.levels >= 2 else 0.0
-        p[kern.P_G_MIN] = self.g_min
-        p[kern.P_G_MAX] = self.g_max
-        p[kern.P_DG] = dG
-        p[kern.P_W_MAX] = w_max
-        p[kern.P_G_PER_W] = grange / w_max
-        p[kern.P_DW_MIN] = 2.0 * dG * w_max / grange
-        p[kern.P_UPDATE] = UPDATES.index(self.update)
-        p[kern.P_COMMIT] = COMMITS.index(self.commit)
-        p[kern.P_BL_MAX] = self.bl_max
-        p[kern.P_C2C] = self.dw_min_std
-        p[kern.P_SOFT] = BOUNDS.index(self.bounds)
-        p[kern.P_PROG_NOISE] = self.prog_noise
-        p[kern.P_PC0] = self.prog_c0
-        p[kern.P_PC1] = self.prog_c1
-        p[kern.P_PC2] = self.prog_c2
-        p[kern.P_PGREF] = self.prog_gref
-        p[kern.P_READ_NOISE] = self.read_noise
-        p[kern.P_OUT_NOISE] = self.out_noise
-        p[kern.P_DAC_STEP] = _step(1.0, self.dac_bits)
-        p[kern.P_ADC_STEP] = _step(self.adc_bound, self.adc_bits)
-        p[kern.P_ADC_BOUND] = self.adc_bound if self.adc_bits > 0 else math.inf
-        p[kern.P_T0] = self.drift_t0
-        p[kern.P_DRIFT_COMP] = float(self.drift_compensation)
-        p[kern.P_ALPHA] = 1.0
-        p[kern.P_ELAPSED] = 0.0
-        p[kern.P_DTOD] = self.dw_min_dtod
-        p[kern.P_UP_DOWN] = self.up_down
-        p[kern.P_UP_DOWN_DTOD] = self.up_down_dtod
-        p[kern.P_NU] = self.drift_nu
-        p[kern.P_NU_STD] = self.drift_nu_std
-        p[kern.P_STUCK_LOW] = self.stuck_low
-        p[kern.P_STUCK_HIGH] = self.stuck_high
-        return p
+
+# the kernels' parameter record: the numeric fields, then what an array derives --------
+CrossbarParams = kernel_record(DeviceConfig, "CrossbarParams", __name__, derived={
+    "dG": float,  # level spacing (g_max - g_min) / (levels - 1); 0 when continuous
+    "w_max": float,  # this array's weight of a full conductance swing
+    "g_per_w": float,  # (g_max - g_min) / w_max
+    "dw_min": float,  # nominal weight step of one pulse, 2 dG w_max / (g_max - g_min)
+    "dac_step": float,  # input step of the DAC on [-1, 1]; 0 = ideal
+    "adc_step": float,  # output step of the ADC on [-adc_bound, adc_bound]; 0 = ideal
+})
+
+
+def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
+    """The :class:`CrossbarParams` of an array of scale ``w_max`` on ``config``."""
+    grange = config.g_max - config.g_min
+    dG = grange / (config.levels - 1) if config.levels >= 2 else 0.0
+    return build_record(
+        CrossbarParams, config, dG=dG, w_max=w_max, g_per_w=grange / w_max,
+        dw_min=2.0 * dG * w_max / grange, dac_step=_step(1.0, config.dac_bits),
+        adc_step=_step(config.adc_bound, config.adc_bits))
 
 
 def _step(bound: float, bits: int) -> float:
     return bound / (2.0 ** (bits - 1) - 1.0) if bits > 0 else 0.0
 
 
-FIELD_NAMES = tuple(f.name for f in fields(DeviceConfig))
-_TYPES = {f.name: f.type for f in fields(DeviceConfig)}
-_CHOICES = {"update": UPDATES, "commit": COMMITS, "bounds": BOUNDS}
+FIELD_NAMES = field_names(DeviceConfig)
 _NONNEG = ("dw_min_dtod", "dw_min_std", "up_down_dtod", "prog_noise", "read_noise",
            "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v")
 
 
 def _validate(c: DeviceConfig) -> None:
-    for f in fields(c):
-        v = getattr(c, f.name)
-        if f.type == "float":
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise InputError(f"crossbar {f.name} {v!r} is not a finite number")
-        elif f.type == "int":
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-                raise InputError(f"crossbar {f.name} {v!r} is not an integer")
-        elif f.type == "bool":
-            if not isinstance(v, (bool, np.bool_)):
-                raise InputError(f"crossbar {f.name} {v!r} is not a boolean")
-        elif f.name in _CHOICES and v not in _CHOICES[f.name]:
-            raise InputError(f"crossbar {f.name} {v!r} is not allowed "
-                             f"(allowed: {', '.join(_CHOICES[f.name])})")
+    check_types(c, "crossbar ")
     for name in _NONNEG:
         if getattr(c, name) < 0:
             raise InputError(f"crossbar {name} {getattr(c, name)!r} is negative "
@@ -276,49 +252,11 @@ PRESETS: dict[str, dict[str, Any]] = {
 }
 
 
-def make_config(preset: str = "pcm", **overrides: Any) -> DeviceConfig:
+def make_config(preset: str = DEFAULT_PRESET, **overrides: Any) -> DeviceConfig:
     """The preset ``preset`` with ``overrides`` (field -> value); ValueError if unknown."""
-    if preset not in PRESETS:
-        raise InputError(f"unknown crossbar preset {preset!r}; allowed: {', '.join(PRESETS)}")
-    unknown = sorted(set(overrides) - set(FIELD_NAMES))
-    if unknown:
-        raise InputError(f"unknown crossbar field {unknown[0]!r}; allowed: "
-                         f"{', '.join(FIELD_NAMES)}")
-    values = {**PRESETS[preset], **overrides}
-    return replace(DeviceConfig(), **{k: _coerce(k, v) for k, v in values.items()})
-
-
-def _coerce(name: str, value: Any) -> Any:
-    """Values from JSON or the command line to the field's type (ints stay ints)."""
-    kind = _TYPES[name]
-    if kind == "float" and isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-        return float(value)
-    if kind == "int" and isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
+    return resolve(DeviceConfig, PRESETS, {**overrides, "preset": preset}, "crossbar")
 
 
 def parse_setting(text: str) -> tuple[str, Any]:
     """``field=value`` from ``--set``: the field name and the value in the field's type."""
-    name, sep, raw = text.partition("=")
-    name, raw = name.strip(), raw.strip()
-    if not sep or not name:
-        raise InputError(f"--set {text!r} is not of the form field=value")
-    if name not in FIELD_NAMES:
-        raise InputError(f"unknown crossbar field {name!r}; allowed: {', '.join(FIELD_NAMES)}")
-    kind = _TYPES[name]
-    try:
-        if kind == "float":
-            value: Any = float(raw)
-        elif kind == "int":
-            value = int(raw)
-        elif kind == "bool":
-            low = raw.lower()
-            if low not in ("1", "0", "true", "false", "yes", "no", "on", "off"):
-                raise ValueError
-            value = low in ("1", "true", "yes", "on")
-        else:
-            value = raw
-    except ValueError:
-        raise InputError(f"--set {name}={raw!r}: not a valid {kind}") from None
-    return name, value
+    return _parse_setting(DeviceConfig, text, "crossbar")

@@ -1,11 +1,13 @@
 """Kernels of the memristive crossbar array: noisy analog reads, pulsed in-situ updates.
 
-One source of truth: :class:`cml_edge.backends.crossbar_array.CrossbarArray` calls these
+One source of truth: :class:`cml_edge.backends.crossbar.array.CrossbarArray` calls these
 kernels from Python, and the compiled training and planning loops call the same ones
 through the seam (:mod:`cml_edge.backends.dispatch`). The device model (balanced pairs,
-levels, programming noise) is described in :mod:`cml_edge.backends.crossbar.conductance`, the
-converters in :mod:`cml_edge.quant.converters`, the parameters in
-:mod:`cml_edge.backends.crossbar.config`.
+levels, programming noise) is described in :mod:`cml_edge.backends.crossbar.conductance`;
+the kernels read the device's numbers from ``state.params``, the
+:class:`~cml_edge.backends.crossbar.config.CrossbarParams` record of its config and scale
+(``P.g_min``, ``P.dw_min``...), and keep what they change over time in state arrays: the
+drift-compensation factor ``state.alpha[0]`` and the idle time ``state.elapsed[0]``.
 
 Read, W x (W^T y the same way on the same conductances, with the roles of the lines
 swapped: the transposed read of planning):
@@ -20,7 +22,7 @@ swapped: the transposed read of planning):
    Gaussians; drawn as one normal per output), plus the output noise N(0, out_noise^2);
 4. the ADC clips at +-adc_bound (counted) and quantises (``adc_bits``);
 5. the digital periphery multiplies by w_max max|x| and, after drift compensation, by
-   the array's compensation factor alpha.
+   the array's compensation factor alpha (``state.alpha[0]``).
 
 Update, W += lr post pre^T:
 
@@ -60,18 +62,13 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.config import BOUNDS, COMMITS, UPDATES
 from cml_edge.rng import uniform, unit, word
 
-# params (float64 vector in the state; filled by DeviceConfig.to_params)
-P_G_MIN, P_G_MAX, P_DG, P_W_MAX, P_G_PER_W, P_DW_MIN, P_UPDATE, P_COMMIT = 0, 1, 2, 3, 4, 5, 6, 7
-P_BL_MAX, P_C2C, P_SOFT, P_PROG_NOISE, P_PC0, P_PC1, P_PC2, P_PGREF = 8, 9, 10, 11, 12, 13, 14, 15
-P_READ_NOISE, P_OUT_NOISE, P_DAC_STEP, P_ADC_STEP, P_ADC_BOUND = 16, 17, 18, 19, 20
-P_T0, P_DRIFT_COMP, P_ALPHA, P_ELAPSED = 21, 22, 23, 24
-P_DTOD, P_UP_DOWN, P_UP_DOWN_DTOD = 25, 26, 27
-P_NU, P_NU_STD, P_STUCK_LOW, P_STUCK_HIGH = 28, 29, 30, 31
-N_PARAMS = 32
-UPDATE_ANALOG, UPDATE_PULSED = 0, 1
-COMMIT_PROGRAM, COMMIT_PULSE = 0, 1
+# choice codes of the parameter record (the index of the value in the config's choices)
+UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
+COMMIT_PROGRAM, COMMIT_PULSE = COMMITS.index("program"), COMMITS.index("pulse")
+BOUNDS_SOFT = BOUNDS.index("soft")
 
 # counter indices (names in CrossbarArray.counter_names)
 MATVECS, RMATVECS, ANALOG_MACS, DAC_CONVERSIONS, ADC_CONVERSIONS, ADC_SATURATIONS = 0, 1, 2, 3, 4, 5
@@ -231,9 +228,10 @@ def _mac(Gp, Gm, xs, buf, transposed):
 
 
 @njit(cache=True)
-def _convert_outputs(buf, out, n_out, P, sigma, scale, rng):
-    """Normalise, add the read noise, ADC, rescale; returns the saturated outputs."""
-    inv_g = 1.0 / (P[P_G_MAX] - P[P_G_MIN])
+def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rng):
+    """Normalise, add the read noise, ADC (step ``adc``, 0 = ideal; clipping at
+    +-``bound``), rescale; returns the saturated outputs."""
+    inv_g = 1.0 / (g_max - g_min)
     if sigma > 0.0:
         key = rng[0]
         ctr = rng[1]
@@ -244,10 +242,8 @@ def _convert_outputs(buf, out, n_out, P, sigma, scale, rng):
     else:
         for o in range(n_out):
             buf[o] = buf[o] * inv_g
-    adc = P[P_ADC_STEP]
     saturated = 0
     if adc > 0.0:
-        bound = P[P_ADC_BOUND]
         inv_adc = 1.0 / adc
         unit = adc * scale
         for o in range(n_out):
@@ -268,18 +264,19 @@ def _read(state, x, out, transposed):
     rows, cols = state.Gp.shape
     n_in = rows if transposed else cols
     n_out = cols if transposed else rows
-    xmax, nnz, sq = _convert_inputs(x, state.xbuf, n_in, P[P_DAC_STEP])
+    xmax, nnz, sq = _convert_inputs(x, state.xbuf, n_in, P.dac_step)
     if not xmax > 0.0:  # no input drives the array: nothing is read
         for i in range(n_out):
             out[i] = 0.0 if xmax == 0.0 else math.nan
         return
     _mac(state.Gp, state.Gm, state.xbuf, state.ybuf, transposed)
-    rn = P[P_READ_NOISE]
-    on = P[P_OUT_NOISE]
+    rn = P.read_noise
+    on = P.out_noise
     sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
     start = state.rng[1]
-    saturated = _convert_outputs(state.ybuf, out, n_out, P, sigma,
-                                 P[P_W_MAX] * xmax * P[P_ALPHA], state.rng)
+    saturated = _convert_outputs(state.ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
+                                 P.adc_bound, sigma, P.w_max * xmax * state.alpha[0],
+                                 state.rng)
     c = state.counters
     c[RNG_DRAWS] += np.int64(state.rng[1] - start)
     c[ANALOG_MACS] += nnz * n_out
@@ -311,10 +308,10 @@ def xbar_sigmoid(state, z, out):
 @njit(cache=True)
 def _move(g, up, s, z, P):
     """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)."""
-    g_min = P[P_G_MIN]
-    g_max = P[P_G_MAX]
-    d = P[P_DG] * s * (1.0 + P[P_C2C] * z)
-    if P[P_SOFT] != 0.0:
+    g_min = P.g_min
+    g_max = P.g_max
+    d = P.dG * s * (1.0 + P.dw_min_std * z)
+    if P.bounds == BOUNDS_SOFT:
         if up:
             d *= 2.0 * (g_max - g) / (g_max - g_min)
         else:
@@ -326,7 +323,7 @@ def _move(g, up, s, z, P):
 @njit(cache=True)
 def _pulse_pair(Gp, Gm, step, age, stuck, P, i, j, n, positive, key, ctr):
     """n pulses on pair (i, j): positive raises G+ and lowers G-, else the reverse."""
-    noisy = P[P_C2C] != 0.0
+    noisy = P.dw_min_std != 0.0
     for _ in range(n):
         for d in range(2):
             up = positive if d == 0 else not positive
@@ -348,10 +345,10 @@ def _pulse_pair(Gp, Gm, step, age, stuck, P, i, j, n, positive, key, ctr):
 @njit(cache=True)
 def _program_device(G, delta, P, key, ctr):
     """Write-verify a device to the level nearest G + delta, with programming noise."""
-    g_min = P[P_G_MIN]
-    g_max = P[P_G_MAX]
-    target = snap_to_level(G + delta, g_min, g_max, P[P_DG])
-    sigma = prog_sigma(target, P[P_PROG_NOISE], P[P_PC0], P[P_PC1], P[P_PC2], P[P_PGREF],
+    g_min = P.g_min
+    g_max = P.g_max
+    target = snap_to_level(G + delta, g_min, g_max, P.dG)
+    sigma = prog_sigma(target, P.prog_noise, P.prog_c0, P.prog_c1, P.prog_c2, P.prog_gref,
                        g_max)
     if sigma > 0.0:
         z, ctr = normal_at(key, ctr)
@@ -371,7 +368,7 @@ def _pulsed_update(state, post, pre, lr):
     idx = state.idx
     rows, cols = Gp.shape
     c = state.counters
-    dw_min = P[P_DW_MIN]
+    dw_min = P.dw_min
     xmax = 0.0
     for j in range(cols):
         xmax = max(xmax, abs(pre[j]))
@@ -381,7 +378,7 @@ def _pulsed_update(state, post, pre, lr):
     if not (xmax > 0.0 and dmax > 0.0 and lr > 0.0):
         return
     bl = int(math.ceil(lr * xmax * dmax / dw_min))
-    bl = max(1, min(bl, int(P[P_BL_MAX])))
+    bl = max(1, min(bl, P.bl_max))
     base = math.sqrt(lr / (dw_min * bl))
     A = base * math.sqrt(dmax / xmax)
     B = base * math.sqrt(xmax / dmax)
@@ -428,10 +425,10 @@ def _analog_update(state, post, pre, lr):
     Gm = state.Gm
     P = state.params
     rows, cols = Gp.shape
-    g_min = P[P_G_MIN]
-    g_max = P[P_G_MAX]
-    dG = P[P_DG]
-    half = 0.5 * P[P_G_PER_W]
+    g_min = P.g_min
+    g_max = P.g_max
+    dG = P.dG
+    half = 0.5 * P.g_per_w
     stuck = state.stuck
     key = state.rng[0]
     ctr = state.rng[1]
@@ -478,7 +475,7 @@ def xbar_outer_update(state, post, pre, lr, defer):
             for i in range(rows):
                 acc[i, j] += (lr * post[i]) * q
         c[ACC_WRITES] += touched
-    elif state.params[P_UPDATE] == UPDATE_PULSED:
+    elif state.params.update == UPDATE_PULSED:
         _pulsed_update(state, post, pre, lr)
     else:
         _analog_update(state, post, pre, lr)
@@ -492,10 +489,10 @@ def _commit(state):
     P = state.params
     stuck = state.stuck
     rows, cols = Gp.shape
-    dw_min = P[P_DW_MIN]
-    dG = P[P_DG]
-    half = 0.5 * P[P_G_PER_W]
-    pulse = P[P_COMMIT] == COMMIT_PULSE
+    dw_min = P.dw_min
+    dG = P.dG
+    half = 0.5 * P.g_per_w
+    pulse = P.commit == COMMIT_PULSE
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
@@ -562,8 +559,8 @@ def xbar_program(state, W):
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
-    lo = P[P_STUCK_LOW]
-    hi = lo + P[P_STUCK_HIGH]
+    lo = P.stuck_low
+    hi = lo + P.stuck_high
     for i in range(rows):
         for j in range(cols):
             for d in range(2):
@@ -575,29 +572,29 @@ def xbar_program(state, W):
             for d in range(2):
                 z1, ctr = normal_at(key, ctr)
                 z2, ctr = normal_at(key, ctr)
-                s = max(1.0 + P[P_DTOD] * z1, 0.0)
-                a = P[P_UP_DOWN] + P[P_UP_DOWN_DTOD] * z2
+                s = max(1.0 + P.dw_min_dtod * z1, 0.0)
+                a = P.up_down + P.up_down_dtod * z2
                 state.step[2 * d, i, j] = max(s * (1.0 + a), 0.0)
                 state.step[2 * d + 1, i, j] = max(s * (1.0 - a), 0.0)
     for i in range(rows):
         for j in range(cols):
             for d in range(2):
                 z, ctr = normal_at(key, ctr)
-                state.nu[d, i, j] = max(P[P_NU] + P[P_NU_STD] * z, 0.0)
-    g_min = P[P_G_MIN]
-    g_max = P[P_G_MAX]
+                state.nu[d, i, j] = max(P.drift_nu + P.drift_nu_std * z, 0.0)
+    g_min = P.g_min
+    g_max = P.g_max
     g_c = 0.5 * (g_min + g_max)
-    half = 0.5 * P[P_G_PER_W]
-    w_max = P[P_W_MAX]
+    half = 0.5 * P.g_per_w
+    w_max = P.w_max
     for i in range(rows):
         for j in range(cols):
             w = min(max(W[i, j], -w_max), w_max)
             for d in range(2):
                 G = snap_to_level(g_c + w * half if d == 0 else g_c - w * half, g_min, g_max,
-                                  P[P_DG])
+                                  P.dG)
                 z, ctr = normal_at(key, ctr)
-                G += z * prog_sigma(G, P[P_PROG_NOISE], P[P_PC0], P[P_PC1], P[P_PC2],
-                                    P[P_PGREF], g_max)
+                G += z * prog_sigma(G, P.prog_noise, P.prog_c0, P.prog_c1, P.prog_c2,
+                                    P.prog_gref, g_max)
                 G = min(max(G, g_min), g_max)
                 code = state.stuck[d, i, j]
                 if code == STUCK_LOW:
@@ -626,8 +623,8 @@ def xbar_elapse(state, seconds):
     Gm = state.Gm
     P = state.params
     rows, cols = Gp.shape
-    t0 = P[P_T0]
-    g_min = P[P_G_MIN]
+    t0 = P.drift_t0
+    g_min = P.g_min
     before = 0.0
     after = 0.0
     for i in range(rows):
@@ -644,6 +641,6 @@ def xbar_elapse(state, seconds):
                 else:
                     Gm[i, j] = max(Gm[i, j] * f, g_min)
             after += abs(Gp[i, j] - Gm[i, j])
-    if P[P_DRIFT_COMP] != 0.0 and after > 0.0:
-        P[P_ALPHA] *= before / after
-    P[P_ELAPSED] += seconds
+    if P.drift_compensation != 0 and after > 0.0:
+        state.alpha[0] *= before / after
+    state.elapsed[0] += seconds

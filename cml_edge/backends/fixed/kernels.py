@@ -1,9 +1,11 @@
 """Kernels of the Loihi-style fixed-point array: integer reads, integer local updates.
 
-One source of truth: :class:`cml_edge.backends.fixed_array.FixedArray` calls these
+One source of truth: :class:`cml_edge.backends.fixed.array.FixedArray` calls these
 kernels from Python and the compiled training and planning loops call them through
-the seam (:mod:`cml_edge.backends.dispatch`). All arithmetic on the weights is integer
-(int64 registers emulating the widths in ``params``), so the order of a sum cannot
+the seam (:mod:`cml_edge.backends.dispatch`). The formats are read from
+``state.params``, the :class:`~cml_edge.backends.fixed.config.FixedParams` record of the
+array's config and exponent (``p.exp``, ``p.qmax``...). All arithmetic on the weights is
+integer (int64 registers emulating the widths in ``params``), so the order of a sum cannot
 change a bit; the only floating-point steps are the exact power-of-two scalings at
 the array's edge (float input -> mantissas, integer sum -> float output) and the
 draws of stochastic rounding, which come from the counter-based generator keyed by
@@ -17,7 +19,7 @@ Read, W x (and W^T y the same way on the same mantissas):
    ``mac_bits`` accumulator (default 32). Overflow proof, checked for the shape when
    the array is built: |sum| <= n qmax_w qmax_x (n = cols, or rows for W^T y), e.g.
    256 x 127 x 127 = 4,129,024 < 2^31 for int8, 256 x 32767 x 127 = 1,065,320,448 < 2^31
-   for int16. Where the bound exceeds the accumulator (``params[P_MV_CHECK]``) each sum
+   for int16. Where the bound exceeds the accumulator (``params.mv_check``) each sum
    is checked, saturated and counted (``mac_saturations``), or raises in strict mode;
 3. ONE arithmetic right shift (floor) of the sum by a fixed amount into the 24-bit
    neuron input (zero for int8 x 8-bit activations; 7 for int16), then the output
@@ -68,12 +70,6 @@ from cml_edge.backends.quant import (
 from cml_edge.errors import InputError
 from cml_edge.rng import uniform
 
-# params (int64 vector in the state)
-P_EXP, P_BITS, P_QMAX, P_ROUNDING, P_ACT_QMAX, P_FRAC, P_ACC_MAX = 0, 1, 2, 3, 4, 5, 6
-P_MAC_MAX, P_MV_CHECK, P_RMV_CHECK, P_MV_SHIFT, P_RMV_SHIFT, P_STRICT = 7, 8, 9, 10, 11, 12
-P_LR_BITS = 13
-N_PARAMS = 14
-
 # counter indices (names in FixedArray.counter_names)
 MATVECS, RMATVECS, MACS, WEIGHT_READS, OUTER_UPDATES, UPDATE_MACS = 0, 1, 2, 3, 4, 5
 ACC_WRITES, WEIGHT_WRITES, CELLS_CHANGED, COMMITS, SATURATIONS = 6, 7, 8, 9, 10
@@ -106,10 +102,10 @@ def lr_mantissa(lr, lr_bits):
 def _emit(state, sums, n, ex, check, shift, out, strict):
     """out[:n] = (saturated sums >> shift) x 2^(e_w + ex + shift); returns saturations."""
     p = state.params
-    e_out = p[P_EXP] + ex + shift
+    e_out = p.exp + ex + shift
     sats = 0
     if check:
-        mac_max = p[P_MAC_MAX]
+        mac_max = p.mac_max
         for i in range(n):
             s, sat = saturate(sums[i], mac_max)
             sums[i] = s
@@ -133,7 +129,7 @@ def fixed_matvec(state, x, out):
     xq = state.xq
     sums = state.sums
     rows, cols = m.shape
-    ex = quantize_vector(x, cols, p[P_ACT_QMAX], xq)
+    ex = quantize_vector(x, cols, p.act_qmax, xq)
     nnz = 0
     if cols <= NARROW:
         for i in range(rows):
@@ -154,7 +150,7 @@ def fixed_matvec(state, x, out):
             for j in range(cols):
                 s += m[i, j] * xq[j]
             sums[i] = s
-    sats = _emit(state, sums, rows, ex, p[P_MV_CHECK], p[P_MV_SHIFT], out, p[P_STRICT])
+    sats = _emit(state, sums, rows, ex, p.mv_check, p.mv_shift, out, p.strict)
     done = nnz * rows
     c = state.counters
     c[MATVECS] += 1
@@ -171,7 +167,7 @@ def fixed_rmatvec(state, y, out):
     yq = state.xq
     sums = state.sums
     rows, cols = m.shape
-    ey = quantize_vector(y, rows, p[P_ACT_QMAX], yq)
+    ey = quantize_vector(y, rows, p.act_qmax, yq)
     for j in range(cols):
         sums[j] = 0
     nnz = 0
@@ -182,7 +178,7 @@ def fixed_rmatvec(state, y, out):
         nnz += 1
         for j in range(cols):
             sums[j] += m[i, j] * v
-    sats = _emit(state, sums, cols, ey, p[P_RMV_CHECK], p[P_RMV_SHIFT], out, p[P_STRICT])
+    sats = _emit(state, sums, cols, ey, p.rmv_check, p.rmv_shift, out, p.strict)
     done = nnz * cols
     c = state.counters
     c[RMATVECS] += 1
@@ -298,32 +294,32 @@ def fixed_outer_update(state, post, pre, lr, defer):
     rows, cols = m.shape
     c = state.counters
     c[OUTER_UPDATES] += 1
-    lr_m, lr_e = lr_mantissa(lr, p[P_LR_BITS])
+    lr_m, lr_e = lr_mantissa(lr, p.lr_bits)
     rf = state.xq
     cq = state.yq
-    e_p = quantize_vector(post, rows, p[P_ACT_QMAX], rf)
-    e_q = quantize_vector(pre, cols, p[P_ACT_QMAX], cq)
+    e_p = quantize_vector(post, rows, p.act_qmax, rf)
+    e_q = quantize_vector(pre, cols, p.act_qmax, cq)
     if lr_m == 0:
         return
     top_r = np.int64(0)
     for i in range(rows):
         rf[i] *= lr_m  # row factor lr_m m_post[i]
         top_r = max(top_r, abs(rf[i]))
-    top = top_r * p[P_ACT_QMAX]
+    top = top_r * p.act_qmax
     tally = state.tally
-    mode = p[P_ROUNDING]
+    mode = p.rounding
     # P is in units of 2^(lr_e + e_p + e_q); the target's unit is 2^(e_w - F) or 2^e_w
     if defer:
-        k = p[P_EXP] - p[P_FRAC] - (lr_e + e_p + e_q)
-        touched = _add_outer(state.acc, p[P_ACC_MAX], rf, cq, rows, cols, k, top, mode,
+        k = p.exp - p.frac - (lr_e + e_p + e_q)
+        touched = _add_outer(state.acc, p.acc_max, rf, cq, rows, cols, k, top, mode,
                              state.rng, tally)
         c[ACC_WRITES] += tally[0]
         c[ACC_SATURATIONS] += tally[2]
         c[BYTES_READ] += tally[0] * state.acc.itemsize
         c[BYTES_WRITTEN] += tally[0] * state.acc.itemsize
     else:
-        k = p[P_EXP] - (lr_e + e_p + e_q)
-        touched = _add_outer(m, p[P_QMAX], rf, cq, rows, cols, k, top, mode, state.rng,
+        k = p.exp - (lr_e + e_p + e_q)
+        touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, state.rng,
                              tally)
         c[WEIGHT_READS] += tally[0]
         c[WEIGHT_WRITES] += tally[0]
@@ -333,7 +329,7 @@ def fixed_outer_update(state, post, pre, lr, defer):
         c[BYTES_WRITTEN] += tally[0] * m.itemsize
     c[UPDATE_MACS] += touched
     c[RNG_DRAWS] += tally[3]
-    if tally[2] and p[P_STRICT]:
+    if tally[2] and p.strict:
         raise SaturationError("fixed-point value saturated (strict mode): the update was "
                               "clipped and the array is left as it is")
 
@@ -344,10 +340,10 @@ def fixed_commit(state):
     acc = state.acc
     p = state.params
     rows, cols = m.shape
-    frac = p[P_FRAC]
-    mode = p[P_ROUNDING]
-    qmax = p[P_QMAX]
-    strict = p[P_STRICT] != 0
+    frac = p.frac
+    mode = p.rounding
+    qmax = p.qmax
+    strict = p.strict != 0
     key = state.rng[0]
     ctr = np.int64(state.rng[1])
     cleared = 0

@@ -7,9 +7,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray
-from cml_edge.backends.dispatch import Kernels, register
 from cml_edge.backends.floating import kernels as kern
-from cml_edge.errors import InputError
+from cml_edge.backends.floating.config import FloatConfig, make_config
 
 
 class FloatState(NamedTuple):
@@ -18,11 +17,6 @@ class FloatState(NamedTuple):
     buf: np.ndarray  # (max(rows, cols),) accumulators of a read, in the storage dtype
     counters: np.ndarray  # int64[N_COUNTERS]
 
-
-register(FloatState, Kernels(kern.float_matvec, kern.float_rmatvec, kern.float_outer_update,
-                             kern.float_commit, kern.float_sigmoid))
-
-_DTYPES = {"float64": np.float64, "float32": np.float32}
 
 
 def _laid_out(W: np.ndarray) -> np.ndarray:
@@ -43,10 +37,11 @@ class FloatArray(SynapticArray):
 
     @classmethod
     def from_float(cls, W: np.ndarray, *, seed: int = 0, index: int = 0,
-                   dtype: str = "float64") -> FloatArray:
-        if dtype not in _DTYPES:
-            raise InputError(f"dtype {dtype!r} is not one of {', '.join(_DTYPES)}")
-        W = _laid_out(np.asarray(W, dtype=_DTYPES[dtype]))
+                   **options: Any) -> FloatArray:
+        """Store W in the config's dtype (``options``: the fields of
+        :class:`~cml_edge.backends.floating.config.FloatConfig`, or a ``preset``)."""
+        config = make_config(**options)
+        W = _laid_out(np.asarray(W, dtype=np.dtype(config.dtype)))
         return cls(FloatState(W, np.zeros_like(W), np.zeros(max(W.shape), W.dtype),
                               np.zeros(kern.N_COUNTERS, np.int64)))
 
@@ -56,6 +51,10 @@ class FloatArray(SynapticArray):
 
     def options(self) -> dict[str, Any]:
         return {"dtype": self.state.W.dtype.name}
+
+    @property
+    def config(self) -> FloatConfig:
+        return FloatConfig(self.state.W.dtype.name)
 
     def to_float(self) -> np.ndarray:
         return self.state.W.astype(np.float64)

@@ -25,7 +25,7 @@ import math
 
 from numba import njit
 
-# counter indices (names in cml_edge.backends.float_array.FloatArray.counter_names)
+# counter indices (names in cml_edge.backends.floating.array.FloatArray.counter_names)
 MATVECS, RMATVECS, MACS, WEIGHT_READS, OUTER_UPDATES, ACC_WRITES = 0, 1, 2, 3, 4, 5
 WEIGHT_WRITES, CELLS_CHANGED, COMMITS, BYTES_READ, BYTES_WRITTEN = 6, 7, 8, 9, 10
 N_COUNTERS = 11
