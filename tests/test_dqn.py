@@ -54,6 +54,15 @@ def test_core_and_cli_never_import_the_extra():
     assert out.strip() == "[]"
 
 
+def test_python_m_dqn_is_the_dqn_command(tmp_path):
+    missing = tmp_path / "none.json"
+    proc = subprocess.run([sys.executable, "-m", "cml_edge.baselines.dqn", "evaluate",
+                           "--results", str(missing), "--no-cml"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "no trained DQN" in proc.stderr
+
+
 def test_fixed_goal_pairs():
     arena = GridArena.empty(30)
     protocol = draw_pairs(arena, 10, 123)
@@ -113,6 +122,14 @@ def sb3():
     from cml_edge.baselines import dqn_sb3
 
     return dqn_sb3
+
+
+def test_the_torch_side_does_not_import_the_driver(sb3):
+    code = ("import sys, cml_edge.baselines.dqn_sb3; "
+            "print('cml_edge.baselines.dqn' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False"
 
 
 def test_network_and_hyperparameters(sb3):

@@ -6,14 +6,8 @@ import argparse
 from typing import Any
 
 from cml_edge.baselines import DEFAULT_RESULTS
-from cml_edge.baselines.dqn import (
-    DEFAULT_STEPS,
-    EVAL_EVERY,
-    MODELS_DIR,
-    DQNRun,
-    evaluate_runs,
-    train_runs,
-)
+from cml_edge.baselines.dqn import evaluate_runs, train_runs
+from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
 from cml_edge.protocol import EVAL_SEED, REWARDS
 
