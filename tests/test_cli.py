@@ -1,4 +1,5 @@
-"""The command line: the contract of DESIGN.md, and one-line errors with exit status 2."""
+"""The command line: the JSON keys the README's command tour promises, saved models that
+load back, and one-line errors with exit status 2 for bad input."""
 
 import json
 import zipfile

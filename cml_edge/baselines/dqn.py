@@ -13,7 +13,7 @@ Environments: :mod:`cml_edge.grid.env` (stay in place on a blocked move, goal en
 episode, truncation at 100 steps, Eq. 6 or Eq. 7 rewards).
 
 What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
-(:func:`cml_edge.metrics.summarize`), ``predict(deterministic=True)``:
+(:func:`cml_edge.grid.metrics.summarize`), ``predict(deterministic=True)``:
 
 - **fixed-goal DQN** (the paper's: it sees only (x, y), so each trained network has one
   goal). The goal of seed s is the goal of protocol pair s, i.e. of
@@ -21,7 +21,7 @@ What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
   evaluated from ``trials`` starts drawn uniformly among the other free cells by
   ``numpy.random.default_rng((eval_seed, s))`` (:func:`fixed_goal_pairs`). Training
   episodes start on uniformly random cells. The CML of seed s (trained by
-  :func:`cml_edge.training.train`, factored path) is evaluated on exactly these pairs.
+  :func:`cml_edge.grid.training.train`, factored path) is evaluated on exactly these pairs.
 - **goal-conditioned DQN** (inputs x, y, goal x, goal y; each training episode draws a
   goal): evaluated on the standard protocol pairs ``draw_pairs(arena, trials,
   eval_seed)``, as the CML is.
@@ -83,7 +83,6 @@ from cml_edge.grid.metrics import (
     chebyshev,
     convergence_index,
     draw_pairs,
-    e_pos,
     geodesic_distances,
     summarize,
 )
@@ -290,50 +289,37 @@ def _pooled_from_records(run: DQNRun, arena: GridArena, seeds: Sequence[int],
 def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
                  walks: int = 100, steps: int = 900,
                  curves_from: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Train the CML of each seed (:func:`cml_edge.training.train`: the protocol's
-    100 x 900 random walks, per-walk updates) and plan that seed's pairs
-    (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos on the pairs
-    after every walk (step 0 = untrained); the training time at every point excludes the
-    evaluation. With ``curves_from`` (the result of another path on the same seeds) the
-    curve is taken from it instead of planned again: the factored and direct paths give
-    the same weights to rounding (tests/test_paths.py), so only the timing is new."""
+    """Train the CML of each seed (the protocol's 100 x 900 random walks, per-walk
+    updates, float64; :func:`cml_edge.grid.evaluation.train_and_evaluate`) and plan that
+    seed's pairs (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos
+    on the pairs after every walk (step 0 = untrained); the training time at every point
+    excludes the evaluation. With ``curves_from`` (the result of another path on the same
+    seeds) the curve is taken from it instead of planned again: the factored and direct
+    paths give the same weights to rounding (tests/test_paths.py), so only the timing is
+    new."""
     from cml_edge.core.cml import CML, CMLConfig
+    from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
     from cml_edge.grid.planning import plan
     from cml_edge.grid.training import TrainConfig, train
 
-    config = TrainConfig(walks, steps)
-    cml_config = CMLConfig.for_arena(arena.size)
-    warm = CML.create(cml_config, "float", 0)  # compile (or load) the kernels untimed
+    training = Training(arena, TrainConfig(walks, steps), CMLConfig.for_arena(arena.size),
+                        "float", {}, path, epoch=1)
+    warm = CML.create(training.cml_config, "float", 0)  # compile (or load) the kernels untimed
     train(warm, arena, TrainConfig(2, 10), 0, path=path, epoch=1)
     plan(warm, arena, np.array([[0, 0]]), np.array([[1, 1]]), path=path)
     finals, stps, pairs_list, curves, walls, cpus = [], [], [], [], [], []
     for n, seed in enumerate(seeds):
-        pairs = pairs_of(seed)
-        cml = CML.create(cml_config, "float", seed)
-        curve: list[float] = []
-        if curves_from is None:
-            r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-            curve.append(float(e_pos(r.final, pairs.goals).mean()))
-        wall, cpu = [0.0], [0.0]
-        clock = [time.perf_counter(), time.process_time()]
-
-        def on_epoch(done: int, cml=cml, pairs=pairs, curve=curve, wall=wall, cpu=cpu,
-                     clock=clock) -> None:
-            wall.append(wall[-1] + time.perf_counter() - clock[0])
-            cpu.append(cpu[-1] + time.process_time() - clock[1])
-            if curves_from is None:
-                r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-                curve.append(float(e_pos(r.final, pairs.goals).mean()))
-            clock[0], clock[1] = time.perf_counter(), time.process_time()
-
-        train(cml, arena, config, seed, path=path, epoch=1, on_epoch=on_epoch)
-        res = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-        finals.append(res.final)
-        stps.append(res.steps)
-        pairs_list.append(pairs)
-        curves.append(curve if curves_from is None else curves_from["curves_per_seed"][n])
-        walls.append(wall)
-        cpus.append(cpu)
+        evaluation = Evaluation(arena, pairs_of(seed))
+        run = train_and_evaluate(seed, training, [evaluation],
+                                 curve=evaluation if curves_from is None else None,
+                                 curve_at_start=True)
+        finals.append(run.results[0].final)
+        stps.append(run.results[0].steps)
+        pairs_list.append(evaluation.pairs)
+        curves.append([p["e_pos_mean"] for p in run.curve] if curves_from is None
+                      else curves_from["curves_per_seed"][n])
+        walls.append(run.wall_s)
+        cpus.append(run.cpu_s)
     curve_steps = [w * steps for w in range(walks + 1)]
     return {"path": path, "walks": walks, "steps_per_walk": steps, "explore": "random",
             "seeds": len(seeds), **pool(pairs_list, finals, stps),

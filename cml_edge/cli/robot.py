@@ -212,7 +212,8 @@ def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, An
             "heading_scale": settings.heading_scale, "utility": cmls[0].config.utility,
             "backend": cmls[0].backend, "stop": args.stop, "radius": args.radius,
             "max_actions": args.max_actions, "base": list(base), "eval_seed": args.eval_seed,
-            "path": args.path, "training_walks": meta["training"].get("walks"),
+            "path": args.path,
+            "training_walks": meta["training"].get("walks"),
             "training_steps": meta["training"].get("steps"),
             "command": command_line(), "cml_edge_version": __version__}
 
@@ -263,6 +264,6 @@ def _cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_robot(args: argparse.Namespace) -> dict[str, Any]:
-    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises ValueError."""
+    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises InputError."""
     commands = {"train": _cmd_train, "evaluate": _cmd_evaluate, "navigate": _cmd_navigate}
     return commands[args.robot_command](args)
