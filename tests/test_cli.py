@@ -40,6 +40,26 @@ def test_train_evaluate_navigate(model, tmp_path, cli):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_compute_path_and_trajectory_keys(tmp_path, cli):
+    code, out, _ = cli("train", *SMALL, "--out", tmp_path / "m.npz", "--json")
+    trained = json.loads(out)
+    assert trained["compute_path"] == trained["path"] == "factored"
+    code, out, _ = cli("evaluate", tmp_path / "m.npz", "--trials", 5, "--path", "direct",
+                       "--json")
+    evaluated = json.loads(out)
+    assert evaluated["compute_path"] == evaluated["path"] == "direct"
+    code, out, _ = cli("navigate", tmp_path / "m.npz", "--start", 0, 0, "--goal", 5, 5,
+                       "--json")
+    nav = json.loads(out)
+    assert nav["trajectory"] == nav["path"] and nav["trajectory"][0] == [0, 0]
+    assert nav["compute_path"] == "factored"
+    code, out, _ = cli("navigate", tmp_path / "m.npz", "--start", 0, 0, "--goal", 5, 5)
+    assert code == 0 and "trajectory: [[0, 0]" in out and "compute_path: factored" in out
+    code, out, _ = cli("emulate", *SMALL, "--seeds", 1, "--trials", 5, "--json")
+    emulated = json.loads(out)
+    assert emulated["compute_path"] == emulated["path"] == "direct"
+
+
 def test_saved_model_round_trip(model):
     cml, record = load_model(model)
     assert record["walks"] == 4 and record["arena"] == 10

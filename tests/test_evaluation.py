@@ -8,11 +8,12 @@ from cml_edge.grid.evaluation import (
     Evaluation,
     Training,
     default_path,
+    run_protocol,
     train_and_evaluate,
 )
 from cml_edge.grid.metrics import draw_pairs, summarize
 from cml_edge.grid.planning import plan
-from cml_edge.grid.training import train
+from cml_edge.grid.training import TrainConfig, train
 
 
 @pytest.mark.parametrize("backend,schedule,counted,expected", [
@@ -60,3 +61,11 @@ def test_driver_is_train_then_plan(small_arena, short_training):
 def _plan(cml, arena, pairs, **kw):
     res = plan(cml, arena, pairs.starts, pairs.goals, path="direct", **kw)
     return res.final, res.steps
+
+
+def test_run_protocol_names_its_compute_path():
+    result = run_protocol("float", [0], 5, 10, train_config=TrainConfig(2, 40))
+    assert result["compute_path"] == result["path"] == "direct" and result["counters"]
+    result = run_protocol("float", [0], 5, 10, train_config=TrainConfig(2, 40),
+                          path="factored")
+    assert result["compute_path"] == result["path"] == "factored"

@@ -181,7 +181,7 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
               "command": command_line()}
     save_model(args.out, cml, record)
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
-        "arena", "walks", "steps", "explore", "schedule", "seed")},
+        "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
         "path": path, "wall_time_s": record["wall_time_s"],
         "final_train_error": float(errors[-1])}
     if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
@@ -214,7 +214,7 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
                             planner=args.planner)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
-           "path": path, "planner": args.planner, "max_steps": budget}
+           "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget}
     if grid is not None:
         out.update({"map": args.map, "scen": args.scen})
     return out
@@ -248,7 +248,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
            "steps": steps, "reached": bool((final == goals[0]).all()),
            "e_pos": float(np.linalg.norm(final - goals[0])),
            "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
-           "planner": args.planner, "path": trajectory.tolist()}
+           "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist()}
+    out["path"] = out["trajectory"]  # the older name of the trajectory
     if args.plot:
         from cml_edge.plots import plot_navigation
 

@@ -169,7 +169,7 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
             "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
             "utility": args.utility, "backend": args.backend, "walks": config.walks,
             "steps": config.steps, "schedule": config.schedule, "seeds": seeds,
-            "path": args.path, "eq3_gain": record["eq3_gain"],
+            "compute_path": args.path, "path": args.path, "eq3_gain": record["eq3_gain"],
             "final_train_error": [e[-1] for e in record["train_error"]],
             "wall_time_s": record["wall_time_s"], "actions_per_s": record["actions_per_s"],
             "command": record["command"], "cml_edge_version": __version__}
@@ -212,7 +212,7 @@ def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, An
             "heading_scale": settings.heading_scale, "utility": cmls[0].config.utility,
             "backend": cmls[0].backend, "stop": args.stop, "radius": args.radius,
             "max_actions": args.max_actions, "base": list(base), "eval_seed": args.eval_seed,
-            "path": args.path,
+            "compute_path": args.path, "path": args.path,
             "training_walks": meta["training"].get("walks"),
             "training_steps": meta["training"].get("steps"),
             "command": command_line(), "cml_edge_version": __version__}

@@ -205,7 +205,8 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
     Obstacles (``obstacles`` > 0) are placed from ``eval_seed`` on the evaluation arena:
     the empty arena of ``eval_size`` (default ``arena_size``), or ``eval_arena``. The
     result carries the arrays' counters, so ``path`` defaults to ``direct``
-    (:func:`default_path`).
+    (:func:`default_path`); its keys ``compute_path`` and ``path`` (the older name) both
+    name it.
     """
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
@@ -263,6 +264,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         "steps": train_config.steps,
         "schedule": train_config.schedule,
         "utility": cml_config.utility,
+        "compute_path": path,
         "path": path,
         "epoch_walks": epoch,
         "idle_s": float(idle_s),
