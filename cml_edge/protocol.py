@@ -1,13 +1,17 @@
 """The fixed numbers of the evaluation protocol, in one place: the evaluation seed, the
 random streams, and the DQN's rewards.
 
-Every random draw of training, exploration, evaluation goals and device noise is
-``uniform(stream_key(seed, STREAM), counter)`` (:mod:`cml_edge.rng`), one stream per
-independent use, so that a draw depends only on (seed, stream, counter). Three draws
-use NumPy generators seeded from the same integers instead: the CML's initial weights
-(:meth:`cml_edge.core.cml.CML.create`, keyed ``[seed, STREAM_INIT]``), the obstacle
-cells of an arena (:meth:`cml_edge.grid.arena.GridArena.with_obstacles`) and the DQN
-baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
+Every random draw of training and exploration (grid and robot), the robot's evaluation
+goals, stochastic rounding and device noise is ``uniform(stream_key(seed, STREAM),
+counter)`` (:mod:`cml_edge.rng`), one stream per independent use, so that a draw depends
+only on (seed, stream, counter). Four draws use NumPy generators seeded from the same
+integers instead: the CML's initial weights (:meth:`cml_edge.core.cml.CML.create`, keyed
+``[seed, STREAM_INIT]``), the grid's evaluation pairs
+(:func:`cml_edge.grid.metrics.draw_pairs`) and obstacle cells
+(:meth:`cml_edge.grid.arena.GridArena.with_obstacles`), both from the evaluation seed,
+and the DQN baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
+The gymnasium environments (:mod:`cml_edge.grid.env`, :mod:`cml_edge.robot.env`) draw
+from their own ``np_random``, seeded through ``reset(seed=...)`` as gymnasium requires.
 """
 
 from __future__ import annotations

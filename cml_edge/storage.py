@@ -68,7 +68,7 @@ def cml_arrays(cml: CML, prefix: str = "") -> dict[str, np.ndarray]:
 
 def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str,
                     prefix: str = "") -> CML:
-    """The CML stored by :func:`cml_arrays` under ``prefix``; ValueError (or KeyError) when
+    """The CML stored by :func:`cml_arrays` under ``prefix``; InputError (or KeyError) when
     an array is missing or malformed or holds a non-finite weight."""
     arrays = []
     for name in MATRICES:
@@ -82,7 +82,7 @@ def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str
     return cml
 
 
-def read_npz(path: str | Path, fmt: str, version: int, error: type[ValueError],
+def read_npz(path: str | Path, fmt: str, version: int, error: type[InputError],
              foreign: dict[str, str] | None = None) -> dict[str, np.ndarray]:
     """The arrays of the ``.npz`` file ``path`` after checking that it exists, reads, and
     carries format ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign``

@@ -75,7 +75,3 @@ def main(argv: list[str] | None = None) -> int:
     elif not result.get("_printed"):
         _print_human(args.command, result)
     return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

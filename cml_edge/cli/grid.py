@@ -189,10 +189,6 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def _load(path: str) -> tuple[CML, dict[str, Any]]:
-    return load_model(path)
-
-
 def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
     size = args.arena if args.arena is not None else int(record.get("arena", 30))
     if args.obstacles:
@@ -205,7 +201,7 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
-    cml, record = _load(args.model)
+    cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
@@ -227,7 +223,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
-    cml, record = _load(args.model)
+    cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
     for name, pos in (("start", args.start), ("goal", args.goal)):
         if not arena.contains(pos):
