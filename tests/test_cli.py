@@ -104,6 +104,22 @@ def test_bad_input_exits_2_with_one_line(cli, tmp_path, monkeypatch, argv, needl
     assert not (tmp_path / "x.npz").exists()
 
 
+def test_bad_seed_and_output_paths_exit_2_before_any_work(model, cli, tmp_path):
+    (tmp_path / "afile").write_text("x")
+    before = sorted(tmp_path.iterdir())
+    assert "--seed 9223372036854775808 is out of range (allowed: 0..9223372036854775807)" in \
+        bad(cli, "train", *SMALL, "--seed", 2**63, "--out", tmp_path / "x.npz")
+    assert "--out" in bad(cli, "train", *SMALL, "--out", tmp_path) and \
+        "is a folder" in bad(cli, "train", *SMALL, "--out", tmp_path)
+    assert "which is a file" in bad(cli, "train", *SMALL, "--out", tmp_path / "afile" / "x.npz")
+    assert "which is a file" in bad(cli, "emulate", *SMALL, "--out",
+                                    tmp_path / "afile" / "x.json")
+    assert "is a folder" in bad(cli, "navigate", model, "--start", 1, 1, "--goal", 2, 2,
+                                "--plot", tmp_path)
+    assert "is a folder, not a file" in bad(cli, "evaluate", tmp_path)
+    assert sorted(tmp_path.iterdir()) == before
+
+
 @pytest.mark.parametrize("start,goal,needle", [
     ((1, 1), (10, 3), "--goal 10 3 is off"),
     ((-1, 0), (3, 3), "--start -1 0 is off"),

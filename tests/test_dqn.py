@@ -266,3 +266,24 @@ def test_concurrent_trainers_keep_each_others_results(tmp_path):
         p.join()
     assert all(p.exitcode == 0 for p in procs)
     assert sorted(read_results(path)["runs"]) == sorted(f"{n}{i}" for n in "ab" for i in range(15))
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("{not json", "not a readable DQN results file"),
+    ("[1, 2]", "not a cml-edge DQN results file"),
+    ('{"format": "cml-edge-dqn-results", "format_version": 1, "runs": {"a": 1}}',
+     "corrupted DQN results file"),
+])
+def test_bad_results_files_exit_2(tmp_path, capsys, text, needle):
+    results = tmp_path / "results.json"
+    results.write_text(text)
+    for argv in (["dqn", "evaluate", "--results", str(results), "--no-cml"],
+                 ["dqn", "train", "--results", str(results), "--steps", "10"],
+                 ["report", "--quick", "--dqn-results", str(results), "--out",
+                  str(tmp_path / "r")]):
+        assert cli_main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and needle in err, err
+    assert cli_main(["dqn", "evaluate", "--results", str(tmp_path), "--no-cml"]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.json"]

@@ -69,3 +69,10 @@ def test_run_protocol_names_its_compute_path():
     result = run_protocol("float", [0], 5, 10, train_config=TrainConfig(2, 40),
                           path="factored")
     assert result["compute_path"] == result["path"] == "factored"
+
+
+def test_run_protocol_needs_a_seed():
+    from cml_edge.errors import InputError
+
+    with pytest.raises(InputError, match="no seeds"):
+        run_protocol("float", [], 5, 10)

@@ -29,8 +29,8 @@ from cml_edge.grid.exploration import EXPLORATIONS
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
-from cml_edge.protocol import EVAL_SEED
-from cml_edge.storage import atomic_write, load_model, save_model
+from cml_edge.protocol import EVAL_SEED, check_seeds
+from cml_edge.storage import atomic_write, load_model, save_model, writable_file
 
 
 def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
@@ -164,6 +164,8 @@ def add_parsers(sub) -> None:
 
 
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    check_seeds("--seed", args.seed)
+    writable_file(args.out, "--out")
     options = backend_options(args)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
     cml = CML.create(CMLConfig.for_arena(args.arena, utility=args.utility), args.backend,
@@ -220,6 +222,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
     if args.scen:
         raise InputError("--scen is not used by navigate (give --start and --goal)")
     grid, _ = _load_map_args(args)
+    if args.plot:
+        writable_file(args.plot, "--plot")
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
@@ -257,6 +261,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     if args.drift_time < 0:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
+    if args.out:
+        writable_file(args.out, "--out")
     options = backend_options(args)
     grid, scen_pairs = _load_map_args(args)
     size = args.arena

@@ -20,7 +20,7 @@ from cml_edge.cli.args import (
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
-from cml_edge.protocol import EVAL_SEED
+from cml_edge.protocol import EVAL_SEED, MAX_STREAM_SEED, check_seeds
 from cml_edge.robot.cml import (
     BASE_POSE,
     GOAL_HEADINGS,
@@ -44,6 +44,7 @@ from cml_edge.robot.models import (
     train_models,
 )
 from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
+from cml_edge.storage import writable_file
 
 
 def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
@@ -150,6 +151,8 @@ def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
 
 
 def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    check_seeds("--seed", args.seed, args.seeds)
+    writable_file(args.out, "--out")
     backend_spec(args.backend)
     robot = RobotConfig()
     settings = RobotCMLSettings(args.observation, args.goal_heading,
@@ -176,6 +179,9 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _load_for_planning(args: argparse.Namespace):
+    check_seeds("--eval-seed", args.eval_seed, largest=MAX_STREAM_SEED)
+    if getattr(args, "plot", None):
+        writable_file(args.plot, "--plot")
     files = args.model if isinstance(args.model, list) else [args.model]
     cmls, meta = load_robot_models(files[0])
     for other in files[1:]:

@@ -16,7 +16,6 @@ rest (sweep, ``results.json``, ``results.csv``, ``figure.png``).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import io
 import json
@@ -227,13 +226,10 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
 
 
 def main_for(module: Any, argv: list[str] | None = None) -> None:
-    """``python -m cml_edge.experiments.NAME``: the sweep with the module's defaults."""
-    parser = argparse.ArgumentParser(description=module.__doc__.splitlines()[0])
-    parser.add_argument("--out", default=None, help=f"folder (default {OUT_ROOT}/NAME)")
-    parser.add_argument("--workers", type=int, default=None, help="local processes")
-    parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
-    parser.add_argument("--seeds", type=int, default=DEFAULT_SEEDS)
-    args = parser.parse_args(argv)
-    summary = run_experiment(module, args.out, args.workers, args.scheduler, seeds=args.seeds)
-    print(markdown_table(summary["rows"], module.COLUMNS))
-    sys.stdout.flush()
+    """``python -m cml_edge.experiments.NAME [options]``: ``cml-edge sweep NAME [options]``
+    (the same options, checks and exit status)."""
+    from cml_edge.cli import main
+
+    argv = ["sweep", module.NAME, *(sys.argv[1:] if argv is None else argv)]
+    sys.argv = ["cml-edge", *argv]  # the provenance names the command as typed
+    sys.exit(main(argv))

@@ -68,7 +68,7 @@ def default_path(cml: CML | str, schedule: str = "walk",
     ``cml`` is a model, or a backend name (with ``backend_options``) whose model is made
     to ask. Planning has no schedule: leave ``schedule`` at its default for it.
     """
-    if counted:
+    if counted or not schedule_defers(schedule):
         return "direct"
     if isinstance(cml, str):
         cml = CML.create(backend=cml, **(backend_options or {}))
@@ -230,6 +230,8 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
                         epoch)
     trials = len(pairs.starts)
     seeds = list(seeds)
+    if not seeds:
+        raise InputError("no seeds given (allowed: one or more model seeds)")
     finals, steps, per_seed, curves, train_errors = [], [], [], [], []
     counters: dict[str, int] = {}
     t0 = time.perf_counter()
