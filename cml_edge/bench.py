@@ -13,7 +13,7 @@ Each figure is the median over ``repeats`` timed runs after a compiling warm-up 
 (random walks with the local rule, heading-aware CML, float64) and ``plan_actions_per_s``
 (driving to goals from the base), each timed after a compiling warm-up: 10 walks x 900
 actions and 100 goals on the kinematic simulator, 1 walk x 300 actions and 5 goals on
-MuJoCo (about 200 actions/s, physics-bound).
+MuJoCo, which is physics-bound (its figures are in the README).
 """
 
 from __future__ import annotations
@@ -24,9 +24,10 @@ from collections.abc import Callable, Sequence
 
 from cml_edge.core.cml import CML
 from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import Training, default_path, train_and_evaluate
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import plan
-from cml_edge.grid.training import TrainConfig, train
+from cml_edge.grid.training import TrainConfig
 from cml_edge.protocol import EVAL_SEED
 
 WALKS, STEPS = 100, 900
@@ -44,27 +45,26 @@ def bench_backend(name: str, repeats: int = 5) -> dict[str, float]:
     full = {e: TrainConfig(WALKS, STEPS, e) for e in ("random", "mixed")}
     warm = {e: TrainConfig(1, 50, e) for e in ("random", "mixed")}
     out: dict[str, float] = {}
-    paths = ["direct"]
-    if getattr(CML.create(backend=name).W_q, "supports_factored", False):
-        paths.append("factored")
+    paths = ["direct"]  # the path device arrays emulate, and the one default_path adds
+    if (extra := default_path(name)) not in paths:
+        paths.append(extra)
     for path in paths:
-        suffix = "" if path == "direct" else "_factored"
+        suffix = "" if path == "direct" else f"_{path}"
         explores = ("random", "mixed") if path == "direct" else ("random",)
         for explore in explores:
             def run_train(r: int, explore: str = explore, path: str = path) -> float:
                 config = warm[explore] if r < 0 else full[explore]
-                cml = CML.create(backend=name, seed=max(r, 0))
-                t0 = time.perf_counter()
-                train(cml, arena, config, seed=max(r, 0), path=path, epoch=config.walks)
-                return (time.perf_counter() - t0) / (config.walks * config.steps)
+                run = train_and_evaluate(max(r, 0), Training(arena, config, backend=name,
+                                                             path=path, epoch=config.walks))
+                return run.wall_s[-1] / (config.walks * config.steps)
 
-            key = f"train_step_us_{explore}" if path == "direct" else "train_step_us_factored"
+            key = f"train_step_us_{explore}" if path == "direct" else f"train_step_us{suffix}"
             per_step = _median_time(run_train, repeats)
             out[key] = per_step * 1e6
-            if path == "factored":
-                out["train_total_s_factored"] = per_step * WALKS * STEPS
-        model = CML.create(backend=name, seed=0)
-        train(model, arena, full["random"], seed=0, path=path)
+            if path != "direct":
+                out[f"train_total_s{suffix}"] = per_step * WALKS * STEPS
+        model = train_and_evaluate(0, Training(arena, full["random"], backend=name,
+                                               path=path)).cml
 
         def run_plan(r: int, path: str = path, model: CML = model) -> float:
             t0 = time.perf_counter()

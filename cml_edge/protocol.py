@@ -1,19 +1,29 @@
 """The fixed numbers of the evaluation protocol, in one place: the evaluation seed, the
 random streams, and the DQN's rewards.
 
-Every random draw of training, exploration, evaluation goals and device noise is
-``uniform(stream_key(seed, STREAM), counter)`` (:mod:`cml_edge.rng`), one stream per
-independent use, so that a draw depends only on (seed, stream, counter). Three draws
-use NumPy generators seeded from the same integers instead: the CML's initial weights
-(:meth:`cml_edge.core.cml.CML.create`, keyed ``[seed, STREAM_INIT]``), the obstacle
-cells of an arena (:meth:`cml_edge.grid.arena.GridArena.with_obstacles`) and the DQN
-baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
+Every random draw of training and exploration (grid and robot), the robot's evaluation
+goals, stochastic rounding and device noise is ``uniform(stream_key(seed, STREAM),
+counter)`` (:mod:`cml_edge.rng`), one stream per independent use, so that a draw depends
+only on (seed, stream, counter). Four draws use NumPy generators seeded from the same
+integers instead: the CML's initial weights (:meth:`cml_edge.core.cml.CML.create`, keyed
+``[seed, STREAM_INIT]``), the grid's evaluation pairs
+(:func:`cml_edge.grid.metrics.draw_pairs`) and obstacle cells
+(:meth:`cml_edge.grid.arena.GridArena.with_obstacles`), both from the evaluation seed,
+and the DQN baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
+The gymnasium environments (:mod:`cml_edge.grid.env`, :mod:`cml_edge.robot.env`) draw
+from their own ``np_random``, seeded through ``reset(seed=...)`` as gymnasium requires.
 """
 
 from __future__ import annotations
 
+from cml_edge.errors import InputError
+
 EVAL_SEED = 123
 """Seed of the evaluation pairs, obstacles and robot goals: every method sees the same."""
+MAX_SEED = 2**63 - 1
+"""The largest model seed: the compiled training loops carry it as an int64."""
+MAX_STREAM_SEED = 2**64 - 1
+"""The largest seed of a counter-based stream (:func:`cml_edge.rng.stream_key`, a uint64)."""
 
 # random streams (one per independent use) --------------------------------------------------
 STREAM_WALK_START = 1
@@ -36,3 +46,12 @@ REWARDS = ("simplified", "tailored")
 """Eq. 6 (simplified) and Eq. 7 (tailored)."""
 R_GOAL = 100.0
 """Eq. 7's reward for reaching the goal."""
+
+
+def check_seeds(option: str, first: int, count: int = 1, largest: int = MAX_SEED) -> None:
+    """InputError naming ``option`` unless seeds ``first .. first + count - 1`` are in
+    ``0 .. largest``."""
+    last = first + count - 1
+    if first < 0 or last > largest:
+        reach = "" if count == 1 else f" with {count} seeds reaches {last}, which"
+        raise InputError(f"{option} {first}{reach} is out of range (allowed: 0..{largest})")

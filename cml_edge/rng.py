@@ -3,12 +3,14 @@
 The functions have explicit uint64 signatures, so Python ints of any size up to 2^64
 and compiled int64 counters reach the same code.
 
-Every random draw in cml-edge (exploration, stochastic rounding, device noise) is
-``uniform(stream_key(seed, stream), counter)``: a SplitMix64 output at position
-``counter`` of the sequence keyed by (seed, stream). A draw depends on nothing but
-those three numbers, so the Python reference path and the compiled fast path, which
-call these same functions, make bit-identical draws, and a run is reproducible from
-its seed whatever order its pieces are computed in.
+The draws of training and exploration (grid and robot), the robot's evaluation goals,
+stochastic rounding and device noise are ``uniform(stream_key(seed, stream), counter)``:
+a SplitMix64 output at position ``counter`` of the sequence keyed by (seed, stream). Such
+a draw depends on nothing but those three numbers, so the Python reference path and the
+compiled fast path, which call these same functions, make bit-identical draws, and a run
+is reproducible from its seed whatever order its pieces are computed in. The few draws
+that use NumPy generators instead (the CML's initial weights, the grid's evaluation pairs
+and obstacles, the DQN's evaluation starts) are listed in :mod:`cml_edge.protocol`.
 """
 
 from __future__ import annotations

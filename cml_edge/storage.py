@@ -33,9 +33,39 @@ class ModelFileError(InputError):
     """A model file that is missing, corrupted, foreign or of another version."""
 
 
-def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
-    """Call ``write(file)`` on a temporary file beside ``path``, then rename it into place."""
+def writable_file(path: str | Path, what: str = "output file") -> Path:
+    """``path`` as a file cml-edge may write (its missing folders are made when it is
+    written); InputError naming ``what`` when it is a folder or lies under a file."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {str(path)!r} is a folder (allowed: a file name)")
+    _under_folders(path, what)
+    return path
+
+
+def writable_folder(path: str | Path, what: str = "output folder") -> Path:
+    """``path`` as a folder cml-edge may write into (made when missing); InputError naming
+    ``what`` when it is a file or lies under one."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{what} {str(path)!r} is a file (allowed: a folder)")
+    _under_folders(path, what)
+    return path
+
+
+def _under_folders(path: Path, what: str) -> None:
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{what} {str(path)!r} lies under {str(parent)!r}, which "
+                                 f"is a file, not a folder")
+            return
+
+
+def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
+    """Call ``write(file)`` on a temporary file beside ``path``, then rename it into place
+    (:func:`writable_file` checks ``path`` first)."""
+    path = writable_file(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
@@ -68,7 +98,7 @@ def cml_arrays(cml: CML, prefix: str = "") -> dict[str, np.ndarray]:
 
 def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str,
                     prefix: str = "") -> CML:
-    """The CML stored by :func:`cml_arrays` under ``prefix``; ValueError (or KeyError) when
+    """The CML stored by :func:`cml_arrays` under ``prefix``; InputError (or KeyError) when
     an array is missing or malformed or holds a non-finite weight."""
     arrays = []
     for name in MATRICES:
@@ -82,12 +112,14 @@ def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str
     return cml
 
 
-def read_npz(path: str | Path, fmt: str, version: int, error: type[ValueError],
+def read_npz(path: str | Path, fmt: str, version: int, error: type[InputError],
              foreign: dict[str, str] | None = None) -> dict[str, np.ndarray]:
     """The arrays of the ``.npz`` file ``path`` after checking that it exists, reads, and
     carries format ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign``
     gives for a known other format."""
     name = str(path)
+    if Path(path).is_dir():
+        raise error(f"model file {name!r} is a folder, not a file")
     if not Path(path).is_file():
         raise error(f"model file {name!r} does not exist")
     try:

@@ -1,4 +1,5 @@
-"""The command line: the contract of DESIGN.md, and one-line errors with exit status 2."""
+"""The command line: the JSON keys the README's command tour promises, saved models that
+load back, and one-line errors with exit status 2 for bad input."""
 
 import json
 import zipfile
@@ -37,6 +38,26 @@ def test_train_evaluate_navigate(model, tmp_path, cli):
     nav = json.loads(out)
     assert nav["path"][0] == [1, 1] and len(nav["path"]) == nav["steps"] + 1
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compute_path_and_trajectory_keys(tmp_path, cli):
+    code, out, _ = cli("train", *SMALL, "--out", tmp_path / "m.npz", "--json")
+    trained = json.loads(out)
+    assert trained["compute_path"] == trained["path"] == "factored"
+    code, out, _ = cli("evaluate", tmp_path / "m.npz", "--trials", 5, "--path", "direct",
+                       "--json")
+    evaluated = json.loads(out)
+    assert evaluated["compute_path"] == evaluated["path"] == "direct"
+    code, out, _ = cli("navigate", tmp_path / "m.npz", "--start", 0, 0, "--goal", 5, 5,
+                       "--json")
+    nav = json.loads(out)
+    assert nav["trajectory"] == nav["path"] and nav["trajectory"][0] == [0, 0]
+    assert nav["compute_path"] == "factored"
+    code, out, _ = cli("navigate", tmp_path / "m.npz", "--start", 0, 0, "--goal", 5, 5)
+    assert code == 0 and "trajectory: [[0, 0]" in out and "compute_path: factored" in out
+    code, out, _ = cli("emulate", *SMALL, "--seeds", 1, "--trials", 5, "--json")
+    emulated = json.loads(out)
+    assert emulated["compute_path"] == emulated["path"] == "direct"
 
 
 def test_saved_model_round_trip(model):
@@ -81,6 +102,22 @@ def test_bad_input_exits_2_with_one_line(cli, tmp_path, monkeypatch, argv, needl
     monkeypatch.chdir(tmp_path)
     assert needle in bad(cli, *argv)
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_bad_seed_and_output_paths_exit_2_before_any_work(model, cli, tmp_path):
+    (tmp_path / "afile").write_text("x")
+    before = sorted(tmp_path.iterdir())
+    assert "--seed 9223372036854775808 is out of range (allowed: 0..9223372036854775807)" in \
+        bad(cli, "train", *SMALL, "--seed", 2**63, "--out", tmp_path / "x.npz")
+    assert "--out" in bad(cli, "train", *SMALL, "--out", tmp_path) and \
+        "is a folder" in bad(cli, "train", *SMALL, "--out", tmp_path)
+    assert "which is a file" in bad(cli, "train", *SMALL, "--out", tmp_path / "afile" / "x.npz")
+    assert "which is a file" in bad(cli, "emulate", *SMALL, "--out",
+                                    tmp_path / "afile" / "x.json")
+    assert "is a folder" in bad(cli, "navigate", model, "--start", 1, 1, "--goal", 2, 2,
+                                "--plot", tmp_path)
+    assert "is a folder, not a file" in bad(cli, "evaluate", tmp_path)
+    assert sorted(tmp_path.iterdir()) == before
 
 
 @pytest.mark.parametrize("start,goal,needle", [

@@ -54,6 +54,15 @@ def test_core_and_cli_never_import_the_extra():
     assert out.strip() == "[]"
 
 
+def test_python_m_dqn_is_the_dqn_command(tmp_path):
+    missing = tmp_path / "none.json"
+    proc = subprocess.run([sys.executable, "-m", "cml_edge.baselines.dqn", "evaluate",
+                           "--results", str(missing), "--no-cml"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "no trained DQN" in proc.stderr
+
+
 def test_fixed_goal_pairs():
     arena = GridArena.empty(30)
     protocol = draw_pairs(arena, 10, 123)
@@ -113,6 +122,14 @@ def sb3():
     from cml_edge.baselines import dqn_sb3
 
     return dqn_sb3
+
+
+def test_the_torch_side_does_not_import_the_driver(sb3):
+    code = ("import sys, cml_edge.baselines.dqn_sb3; "
+            "print('cml_edge.baselines.dqn' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "False"
 
 
 def test_network_and_hyperparameters(sb3):
@@ -249,3 +266,24 @@ def test_concurrent_trainers_keep_each_others_results(tmp_path):
         p.join()
     assert all(p.exitcode == 0 for p in procs)
     assert sorted(read_results(path)["runs"]) == sorted(f"{n}{i}" for n in "ab" for i in range(15))
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("{not json", "not a readable DQN results file"),
+    ("[1, 2]", "not a cml-edge DQN results file"),
+    ('{"format": "cml-edge-dqn-results", "format_version": 1, "runs": {"a": 1}}',
+     "corrupted DQN results file"),
+])
+def test_bad_results_files_exit_2(tmp_path, capsys, text, needle):
+    results = tmp_path / "results.json"
+    results.write_text(text)
+    for argv in (["dqn", "evaluate", "--results", str(results), "--no-cml"],
+                 ["dqn", "train", "--results", str(results), "--steps", "10"],
+                 ["report", "--quick", "--dqn-results", str(results), "--out",
+                  str(tmp_path / "r")]):
+        assert cli_main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and needle in err, err
+    assert cli_main(["dqn", "evaluate", "--results", str(tmp_path), "--no-cml"]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.json"]

@@ -60,6 +60,24 @@ def test_sweep_command_writes_results_and_resumes(tmp_path, cli):
     assert json.loads(stdout2)["rows"] == summary["rows"]
 
 
+def test_sweep_into_a_file_exits_2(cli, tmp_path):
+    (tmp_path / "afile").write_text("x")
+    line = bad(cli, "sweep", "convergence", "--seeds", 1, "--out", tmp_path / "afile")
+    assert "is a file (allowed: a folder)" in line
+
+
+def test_python_m_experiment_is_the_sweep_command(tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "cml_edge.experiments.convergence",
+                           "--seeds", "0", "--out", str(tmp_path / "c")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "'0' is not an integer >= 1" in proc.stderr
+    assert not (tmp_path / "c").exists()
+
+
 @pytest.fixture(scope="module")
 def model(tmp_path_factory):
     path = tmp_path_factory.mktemp("m") / "m32.npz"

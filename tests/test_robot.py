@@ -347,6 +347,24 @@ def test_cli_bad_planning_input_exits_2(model, tmp_path, cli):
     assert code == 2 and "grid model" in err
 
 
+def test_cli_seeds_and_output_paths_out_of_range_exit_2(model, tmp_path, cli):
+    (tmp_path / "afile").write_text("x")
+    for argv, message in (
+        (["train", *SMALL, "--seed", 2**63, "--out", tmp_path / "r.npz"],
+         "--seed 9223372036854775808 is out of range (allowed: 0..9223372036854775807)"),
+        (["train", *SMALL, "--seed", 2**63 - 2, "--seeds", 3, "--out", tmp_path / "r.npz"],
+         "reaches 9223372036854775808"),
+        (["train", *SMALL, "--out", tmp_path], "is a folder"),
+        (["train", *SMALL, "--out", tmp_path / "afile" / "r.npz"], "which is a file"),
+        (["evaluate", model, "--eval-seed", 2**64], "allowed: 0..18446744073709551615"),
+        (["navigate", model, "--plot", tmp_path], "is a folder"),
+    ):
+        code, out, err = cli("robot", *argv)
+        assert code == 2 and out == "", err
+        assert len(err.strip().splitlines()) == 1 and message in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "robot.npz"]
+
+
 # Gymnasium --------------------------------------------------------------------------------
 def test_gym_environment():
     pytest.importorskip("gymnasium")

@@ -46,11 +46,22 @@ def load_results(path: str | Path = DEFAULT_RESULTS) -> dict[str, Any] | None:
     Needs no extra: this is how the hardware-budget report reads the baseline.
     """
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{str(path)!r} is a folder, not a DQN results file")
     if not path.is_file():
         return None
-    data = json.loads(path.read_text())
-    if data.get("format") != RESULTS_FORMAT:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{str(path)!r} is not a readable DQN results file "
+                         f"({type(exc).__name__})") from None
+    if not isinstance(data, dict) or data.get("format") != RESULTS_FORMAT:
         raise InputError(f"{str(path)!r} is not a cml-edge DQN results file")
+    for part in ("runs", "evaluations"):
+        entries = data.get(part, {})
+        if not (isinstance(entries, dict) and all(isinstance(e, dict) for e in entries.values())):
+            raise InputError(f"{str(path)!r} is a corrupted DQN results file (its {part!r} is "
+                             f"not a table of entries)")
     return data
 
 

@@ -4,7 +4,8 @@ The network is the paper's: inputs -> 64 -> 64 -> 8 actions, ReLU (4,872 paramet
 with (x, y) inputs; 9,472 FLOPs per action by the paper's formula; see
 :mod:`cml_edge.baselines`). It is trained with stable-baselines3's DQN using the
 hyperparameters of the original stable-baselines DQN ("the already tuned implementation
-from Hill et al., 2018"), listed in :data:`HYPERPARAMS`. SB3's DQN is *vanilla* DQN: the
+from Hill et al., 2018"), listed in
+:data:`cml_edge.baselines.settings.HYPERPARAMS`. SB3's DQN is *vanilla* DQN: the
 original stable-baselines also used Double-Q targets and a dueling head by default, which
 SB3 does not implement. SB3's own defaults are Atari settings and did not learn this task.
 
@@ -12,7 +13,7 @@ Environments: :mod:`cml_edge.grid.env` (stay in place on a blocked move, goal en
 episode, truncation at 100 steps, Eq. 6 or Eq. 7 rewards).
 
 What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
-(:func:`cml_edge.metrics.summarize`), ``predict(deterministic=True)``:
+(:func:`cml_edge.grid.metrics.summarize`), ``predict(deterministic=True)``:
 
 - **fixed-goal DQN** (the paper's: it sees only (x, y), so each trained network has one
   goal). The goal of seed s is the goal of protocol pair s, i.e. of
@@ -20,7 +21,7 @@ What is evaluated, on the empty 30 x 30 arena, with the CML's metrics
   evaluated from ``trials`` starts drawn uniformly among the other free cells by
   ``numpy.random.default_rng((eval_seed, s))`` (:func:`fixed_goal_pairs`). Training
   episodes start on uniformly random cells. The CML of seed s (trained by
-  :func:`cml_edge.training.train`, factored path) is evaluated on exactly these pairs.
+  :func:`cml_edge.grid.training.train`, factored path) is evaluated on exactly these pairs.
 - **goal-conditioned DQN** (inputs x, y, goal x, goal y; each training episode draws a
   goal): evaluated on the standard protocol pairs ``draw_pairs(arena, trials,
   eval_seed)``, as the CML is.
@@ -50,7 +51,6 @@ import time
 import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +67,14 @@ from cml_edge.baselines import (
     mlp_inference_flops,
     mlp_parameter_count,
 )
+from cml_edge.baselines.settings import (  # noqa: F401 - all re-exported
+    DEFAULT_STEPS,
+    EVAL_EVERY,
+    HYPERPARAMS,
+    MODELS_DIR,
+    NET_ARCH,
+    DQNRun,
+)
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import (
@@ -75,78 +83,14 @@ from cml_edge.grid.metrics import (
     chebyshev,
     convergence_index,
     draw_pairs,
-    e_pos,
     geodesic_distances,
     summarize,
 )
-from cml_edge.protocol import EVAL_SEED, REWARDS
+from cml_edge.protocol import EVAL_SEED
 from cml_edge.storage import atomic_write_text
 
-# Training budgets of the paper (2.3): 100,000 steps with Eq. 6, 200,000 with Eq. 7.
-DEFAULT_STEPS = {"simplified": 100_000, "tailored": 200_000}
-EVAL_EVERY = 5_000
-NET_ARCH = (64, 64)
-MODELS_DIR = Path("runs") / "dqn"
-
-# The original stable-baselines (v2) DQN defaults, passed to SB3's DQN. SB3's own
-# defaults (lr 1e-4, buffer 1e6, train_freq 4, target update 10,000, final eps 0.05) are
-# Atari settings. tau = 1 is a hard target copy; max_grad_norm 10 is the original's
-# gradient clipping; loss is the Huber loss in both.
-HYPERPARAMS: dict[str, Any] = {
-    "learning_rate": 5e-4,
-    "buffer_size": 50_000,
-    "learning_starts": 1_000,
-    "batch_size": 32,
-    "gamma": 0.99,
-    "train_freq": 1,
-    "gradient_steps": 1,
-    "target_update_interval": 500,
-    "tau": 1.0,
-    "exploration_fraction": 0.1,
-    "exploration_initial_eps": 1.0,
-    "exploration_final_eps": 0.02,
-    "max_grad_norm": 10.0,
-}
 EXTRA_HINT = ("the DQN needs the optional extra: pip install torch==2.13.0 && "
               "pip install -e '.[dqn]'")
-
-
-@dataclass(frozen=True)
-class DQNRun:
-    """One training configuration (what a results-file entry is keyed by)."""
-
-    reward: str = "simplified"
-    goal_conditioned: bool = False
-    steps: int = DEFAULT_STEPS["simplified"]
-    arena: int = 30
-    trials: int = 100
-    eval_seed: int = EVAL_SEED
-    eval_every: int = EVAL_EVERY
-
-    def __post_init__(self) -> None:
-        if self.reward not in REWARDS:
-            raise InputError(f"unknown reward {self.reward!r}; allowed: {', '.join(REWARDS)}")
-        for name in ("steps", "trials", "eval_every"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or int(v) != v or v < 1:
-                raise InputError(f"{name} {v!r} is not a positive integer")
-        if isinstance(self.arena, bool) or int(self.arena) != self.arena or self.arena < 2:
-            raise InputError(f"arena {self.arena!r} is not an integer >= 2")
-
-    @property
-    def name(self) -> str:
-        return ("goal_conditioned_" if self.goal_conditioned else "") + self.reward
-
-    @property
-    def key(self) -> str:
-        """Results-file key: name, budget and evaluation set-up (short test runs never mix
-        with full runs)."""
-        return (f"{self.name}_{self.steps}_a{self.arena}_t{self.trials}_e{self.eval_seed}"
-                f"_every{self.eval_every}")
-
-    @property
-    def layers(self) -> tuple[int, ...]:
-        return GOAL_CONDITIONED_LAYERS if self.goal_conditioned else PAPER_LAYERS
 
 
 # pairs -------------------------------------------------------------------------------
@@ -345,50 +289,37 @@ def _pooled_from_records(run: DQNRun, arena: GridArena, seeds: Sequence[int],
 def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
                  walks: int = 100, steps: int = 900,
                  curves_from: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Train the CML of each seed (:func:`cml_edge.training.train`: the protocol's
-    100 x 900 random walks, per-walk updates) and plan that seed's pairs
-    (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos on the pairs
-    after every walk (step 0 = untrained); the training time at every point excludes the
-    evaluation. With ``curves_from`` (the result of another path on the same seeds) the
-    curve is taken from it instead of planned again: the factored and direct paths give
-    the same weights to rounding (tests/test_paths.py), so only the timing is new."""
+    """Train the CML of each seed (the protocol's 100 x 900 random walks, per-walk
+    updates, float64; :func:`cml_edge.grid.evaluation.train_and_evaluate`) and plan that
+    seed's pairs (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos
+    on the pairs after every walk (step 0 = untrained); the training time at every point
+    excludes the evaluation. With ``curves_from`` (the result of another path on the same
+    seeds) the curve is taken from it instead of planned again: the factored and direct
+    paths give the same weights to rounding (tests/test_paths.py), so only the timing is
+    new."""
     from cml_edge.core.cml import CML, CMLConfig
+    from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
     from cml_edge.grid.planning import plan
     from cml_edge.grid.training import TrainConfig, train
 
-    config = TrainConfig(walks, steps)
-    cml_config = CMLConfig.for_arena(arena.size)
-    warm = CML.create(cml_config, "float", 0)  # compile (or load) the kernels untimed
+    training = Training(arena, TrainConfig(walks, steps), CMLConfig.for_arena(arena.size),
+                        "float", {}, path, epoch=1)
+    warm = CML.create(training.cml_config, "float", 0)  # compile (or load) the kernels untimed
     train(warm, arena, TrainConfig(2, 10), 0, path=path, epoch=1)
     plan(warm, arena, np.array([[0, 0]]), np.array([[1, 1]]), path=path)
     finals, stps, pairs_list, curves, walls, cpus = [], [], [], [], [], []
     for n, seed in enumerate(seeds):
-        pairs = pairs_of(seed)
-        cml = CML.create(cml_config, "float", seed)
-        curve: list[float] = []
-        if curves_from is None:
-            r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-            curve.append(float(e_pos(r.final, pairs.goals).mean()))
-        wall, cpu = [0.0], [0.0]
-        clock = [time.perf_counter(), time.process_time()]
-
-        def on_epoch(done: int, cml=cml, pairs=pairs, curve=curve, wall=wall, cpu=cpu,
-                     clock=clock) -> None:
-            wall.append(wall[-1] + time.perf_counter() - clock[0])
-            cpu.append(cpu[-1] + time.process_time() - clock[1])
-            if curves_from is None:
-                r = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-                curve.append(float(e_pos(r.final, pairs.goals).mean()))
-            clock[0], clock[1] = time.perf_counter(), time.process_time()
-
-        train(cml, arena, config, seed, path=path, epoch=1, on_epoch=on_epoch)
-        res = plan(cml, arena, pairs.starts, pairs.goals, path=path)
-        finals.append(res.final)
-        stps.append(res.steps)
-        pairs_list.append(pairs)
-        curves.append(curve if curves_from is None else curves_from["curves_per_seed"][n])
-        walls.append(wall)
-        cpus.append(cpu)
+        evaluation = Evaluation(arena, pairs_of(seed))
+        run = train_and_evaluate(seed, training, [evaluation],
+                                 curve=evaluation if curves_from is None else None,
+                                 curve_at_start=True)
+        finals.append(run.results[0].final)
+        stps.append(run.results[0].steps)
+        pairs_list.append(evaluation.pairs)
+        curves.append([p["e_pos_mean"] for p in run.curve] if curves_from is None
+                      else curves_from["curves_per_seed"][n])
+        walls.append(run.wall_s)
+        cpus.append(run.cpu_s)
     curve_steps = [w * steps for w in range(walks + 1)]
     return {"path": path, "walks": walks, "steps_per_walk": steps, "explore": "random",
             "seeds": len(seeds), **pool(pairs_list, finals, stps),

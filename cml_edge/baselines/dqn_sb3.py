@@ -1,8 +1,9 @@
 """The parts of the DQN baseline that touch torch, stable-baselines3 and gymnasium.
 
 Imported only by :mod:`cml_edge.baselines.dqn` when a command runs (never at package
-load). torch runs on one thread: two threads on the 2-core machine collapse under
-contention.
+load). It takes its settings from :mod:`cml_edge.baselines.settings` and never imports
+:mod:`cml_edge.baselines.dqn`, so the two do not import each other. torch runs on one
+thread: two threads on the 2-core machine collapse under contention.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from stable_baselines3 import DQN
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
-from cml_edge.baselines.dqn import HYPERPARAMS, NET_ARCH, DQNRun
+from cml_edge.baselines.settings import HYPERPARAMS, NET_ARCH, DQNRun
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.env import GridNavEnv, apply_moves, scale_positions
 from cml_edge.grid.metrics import Pairs

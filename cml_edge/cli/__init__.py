@@ -42,9 +42,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _print_human(command: str, result: dict[str, Any]) -> None:
+    # "path" is the older name of "compute_path" (and of navigate's "trajectory")
     skip = {"per_seed", "curve_e_pos_mean", "train_error", "path", "seed_list", "counters"}
+    if command == "navigate":
+        skip = {"path"}
     for k, v in result.items():
-        if k in skip and command != "navigate" or isinstance(v, dict):
+        if k in skip or isinstance(v, dict):
             continue
         if isinstance(v, float):
             v = f"{v:.4f}"
@@ -72,7 +75,3 @@ def main(argv: list[str] | None = None) -> int:
     elif not result.get("_printed"):
         _print_human(args.command, result)
     return 0
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

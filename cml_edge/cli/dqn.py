@@ -5,17 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from cml_edge.baselines import DEFAULT_RESULTS
-from cml_edge.baselines.dqn import (
-    DEFAULT_STEPS,
-    EVAL_EVERY,
-    MODELS_DIR,
-    DQNRun,
-    evaluate_runs,
-    train_runs,
-)
+from cml_edge.baselines import DEFAULT_RESULTS, load_results
+from cml_edge.baselines.dqn import evaluate_runs, train_runs
+from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
 from cml_edge.protocol import EVAL_SEED, REWARDS
+from cml_edge.storage import writable_file, writable_folder
 
 
 def add_parsers(subparsers) -> None:
@@ -64,9 +59,12 @@ def _run_from_args(args: argparse.Namespace) -> DQNRun:
 def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
     """``cml-edge dqn train|evaluate``: the JSON-ready result."""
     run = _run_from_args(args)
+    writable_file(args.results, "--results")
+    load_results(args.results)  # a bad results file fails now, before any training
     command = getattr(args, "command_line", None) or command_line()
     seeds = range(args.seeds)
     if args.dqn_command == "train":
+        writable_folder(args.models, "--models")
         return train_runs(run, seeds, args.results, args.models, command,
                           Progress(f"dqn train {run.name}"))
     return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)

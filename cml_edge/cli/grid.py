@@ -24,16 +24,18 @@ from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import evaluate_model, run_protocol
+from cml_edge.grid.evaluation import default_path, evaluate_model, run_protocol
 from cml_edge.grid.exploration import EXPLORATIONS
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
-from cml_edge.protocol import EVAL_SEED
-from cml_edge.storage import atomic_write, load_model, save_model
+from cml_edge.protocol import EVAL_SEED, check_seeds
+from cml_edge.storage import atomic_write, load_model, save_model, writable_file
 
 
-def _add_training(p: argparse.ArgumentParser) -> None:
+def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
+    """The training options; ``counted``: the command reports the arrays' counters, so its
+    default compute path is direct (:func:`cml_edge.grid.evaluation.default_path`)."""
     p.add_argument("--arena", type=arena_size, default=30, help="arena side (default 30)")
     p.add_argument("--walks", type=positive_int, default=100, help="exploration walks (100)")
     p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")
@@ -44,10 +46,11 @@ def _add_training(p: argparse.ArgumentParser) -> None:
                         "step: applied in place every step")
     p.add_argument("--utility", choices=UTILITIES, default="normalized",
                    help="planning utility: W_v columns normalised (default) or raw")
+    default = ("direct (the counters are counted on it)" if counted else
+               "factored for float64 with the walk schedule, else direct")
     p.add_argument("--path", choices=PATHS, default=None,
                    help="compute path: factored (float fast path), direct (compiled, through "
-                        "the array), reference (plain Python); default factored for float "
-                        "with the walk schedule, else direct")
+                        f"the array), reference (plain Python); default {default}")
 
 
 def _add_eval(p: argparse.ArgumentParser) -> None:
@@ -120,7 +123,9 @@ def add_parsers(sub) -> None:
     _add_eval(p)
     p.add_argument("--seed", type=nonneg_int, default=EVAL_SEED,
                    help=f"evaluation seed: pairs and obstacles ({EVAL_SEED})")
-    p.add_argument("--path", choices=PATHS, default=None, help="compute path (see train)")
+    p.add_argument("--path", choices=PATHS, default=None,
+                   help="compute path (see train); default factored for a float64 model, "
+                        "else direct")
     _add_planner(p)
     _add_map(p)
     p.set_defaults(run=cmd_evaluate)
@@ -143,7 +148,7 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("emulate", help="train and evaluate models on a synaptic array "
                        "(the evaluation protocol)")
-    _add_training(p)
+    _add_training(p, counted=True)
     add_backend(p)
     _add_eval(p)
     p.add_argument("--seeds", type=positive_int, default=10, help="models, seeds 0..N-1 (10)")
@@ -158,19 +163,14 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_emulate)
 
 
-def _default_path(backend: str, schedule: str, path: str | None) -> str:
-    if path is not None:
-        return path
-    factored_ok = backend == "float" and schedule == "walk"
-    return "factored" if factored_ok else "direct"
-
-
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    check_seeds("--seed", args.seed)
+    writable_file(args.out, "--out")
     options = backend_options(args)
-    path = _default_path(args.backend, args.schedule, args.path)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
     cml = CML.create(CMLConfig.for_arena(args.arena, utility=args.utility), args.backend,
                      args.seed, **options)
+    path = args.path or default_path(cml, args.schedule)
     arena = GridArena.empty(args.arena)
     t0 = time.perf_counter()
     bar = Progress("train")
@@ -183,15 +183,12 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
               "command": command_line()}
     save_model(args.out, cml, record)
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
-        "arena", "walks", "steps", "explore", "schedule", "seed", "path", "wall_time_s")},
+        "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
+        "path": path, "wall_time_s": record["wall_time_s"],
         "final_train_error": float(errors[-1])}
     if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
         out["counters"] = cml.counters()
     return out
-
-
-def _load(path: str) -> tuple[CML, dict[str, Any]]:
-    return load_model(path)
 
 
 def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
@@ -206,16 +203,16 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
-    cml, record = _load(args.model)
+    cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
-    path = _default_path(cml.backend, "walk", args.path)
+    path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
     result = evaluate_model(cml, arena, pairs, path=path, max_steps=budget,
                             planner=args.planner)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
-           "path": path, "planner": args.planner, "max_steps": budget}
+           "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget}
     if grid is not None:
         out.update({"map": args.map, "scen": args.scen})
     return out
@@ -225,10 +222,12 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
     if args.scen:
         raise InputError("--scen is not used by navigate (give --start and --goal)")
     grid, _ = _load_map_args(args)
+    if args.plot:
+        writable_file(args.plot, "--plot")
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
-    cml, record = _load(args.model)
+    cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
     for name, pos in (("start", args.start), ("goal", args.goal)):
         if not arena.contains(pos):
@@ -237,8 +236,9 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
         if not arena.is_free(pos):
             raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
     starts, goals = np.array([args.start]), np.array([args.goal])
+    path = default_path(cml)
     res = plan(cml, arena, starts, goals, max_steps=_budget(args, arena.size, grid is not None),
-               path=_default_path(cml.backend, "walk", None), planner=args.planner)
+               path=path, planner=args.planner)
     steps = int(res.steps[0])
     trajectory = res.paths[0, : steps + 1]
     pairs = Pairs(starts, goals, np.abs(starts - goals).max(1),
@@ -248,7 +248,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
            "steps": steps, "reached": bool((final == goals[0]).all()),
            "e_pos": float(np.linalg.norm(final - goals[0])),
            "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
-           "planner": args.planner, "path": trajectory.tolist()}
+           "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist()}
+    out["path"] = out["trajectory"]  # the older name of the trajectory
     if args.plot:
         from cml_edge.plots import plot_navigation
 
@@ -260,6 +261,8 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     if args.drift_time < 0:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
+    if args.out:
+        writable_file(args.out, "--out")
     options = backend_options(args)
     grid, scen_pairs = _load_map_args(args)
     size = args.arena
@@ -269,11 +272,10 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
                              f"{grid.side}); leave --arena out")
         size = grid.side
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
-    path = args.path or "direct"
     result = run_protocol(args.backend, range(args.seeds), args.trials, size,
                           args.obstacles, config,
                           CMLConfig.for_arena(size, utility=args.utility),
-                          eval_seed=args.eval_seed, path=path, idle_s=args.drift_time,
+                          eval_seed=args.eval_seed, path=args.path, idle_s=args.drift_time,
                           progress=Progress(f"emulate {args.backend}"),
                           planner=args.planner,
                           max_steps=_budget(args, size, grid is not None),

@@ -20,7 +20,7 @@ from cml_edge.cli.args import (
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
-from cml_edge.protocol import EVAL_SEED
+from cml_edge.protocol import EVAL_SEED, MAX_STREAM_SEED, check_seeds
 from cml_edge.robot.models import (
     asdict_options,
     evaluate_models,
@@ -42,6 +42,7 @@ from cml_edge.robot.planning import (
 )
 from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
 from cml_edge.robot.training import RobotTrainConfig
+from cml_edge.storage import writable_file
 
 
 def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
@@ -148,6 +149,8 @@ def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
 
 
 def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    check_seeds("--seed", args.seed, args.seeds)
+    writable_file(args.out, "--out")
     backend_spec(args.backend)
     robot = RobotConfig()
     settings = RobotCMLSettings(args.observation, args.goal_heading,
@@ -167,13 +170,16 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
             "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
             "utility": args.utility, "backend": args.backend, "walks": config.walks,
             "steps": config.steps, "schedule": config.schedule, "seeds": seeds,
-            "path": args.path, "eq3_gain": record["eq3_gain"],
+            "compute_path": args.path, "path": args.path, "eq3_gain": record["eq3_gain"],
             "final_train_error": [e[-1] for e in record["train_error"]],
             "wall_time_s": record["wall_time_s"], "actions_per_s": record["actions_per_s"],
             "command": record["command"], "cml_edge_version": __version__}
 
 
 def _load_for_planning(args: argparse.Namespace):
+    check_seeds("--eval-seed", args.eval_seed, largest=MAX_STREAM_SEED)
+    if getattr(args, "plot", None):
+        writable_file(args.plot, "--plot")
     files = args.model if isinstance(args.model, list) else [args.model]
     cmls, meta = load_robot_models(files[0])
     for other in files[1:]:
@@ -210,7 +216,8 @@ def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, An
             "heading_scale": settings.heading_scale, "utility": cmls[0].config.utility,
             "backend": cmls[0].backend, "stop": args.stop, "radius": args.radius,
             "max_actions": args.max_actions, "base": list(base), "eval_seed": args.eval_seed,
-            "path": args.path, "training_walks": meta["training"].get("walks"),
+            "compute_path": args.path, "path": args.path,
+            "training_walks": meta["training"].get("walks"),
             "training_steps": meta["training"].get("steps"),
             "command": command_line(), "cml_edge_version": __version__}
 
@@ -261,6 +268,6 @@ def _cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_robot(args: argparse.Namespace) -> dict[str, Any]:
-    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises ValueError."""
+    """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises InputError."""
     commands = {"train": _cmd_train, "evaluate": _cmd_evaluate, "navigate": _cmd_navigate}
     return commands[args.robot_command](args)

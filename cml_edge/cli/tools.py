@@ -12,6 +12,7 @@ from cml_edge.cli.args import Progress, command_line, positive_int
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.robot.sim import SIMS
+from cml_edge.storage import writable_folder
 
 
 def add_parsers(sub) -> None:
@@ -60,6 +61,7 @@ def add_parsers(sub) -> None:
 
 
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.baselines import load_results
     from cml_edge.report import build_report, write_report
     from cml_edge.report.build import DQN_RESULTS
 
@@ -69,6 +71,8 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.dqn_results is not None and not Path(args.dqn_results).is_file():
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
+    load_results(args.dqn_results or DQN_RESULTS)  # a bad file fails now, not after the runs
+    writable_folder(args.out, "--out")
     report = build_report(quick=args.quick, command=command_line(),
                           progress=progress, dqn_results=args.dqn_results or DQN_RESULTS)
     folder = write_report(report, args.out)
@@ -97,6 +101,8 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.experiments.common import markdown_table, run_experiment
 
     module = experiments.get(args.experiment)
+    if args.out is not None:
+        writable_folder(args.out, "--out")
     if args.scen and not args.map:
         raise InputError("--scen needs --map")
     if args.map:  # fail on a bad file now, before any task runs

@@ -14,7 +14,7 @@ Deterministic (fixed seeds): rerunning rewrites the same files. Each map is 32 x
 
 The scenarios (``NAME.map.scen``) hold 100 problems each, drawn from seed 7 among the
 pairs connected under this package's king moves, with the octile length of a shortest
-path under those moves (:func:`cml_edge.maps.octile_distances`).
+path under those moves (:func:`cml_edge.grid.maps.octile_distances`).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "o
 
 
 def get(name: str) -> ModuleType:
-    """The module of experiment ``name``; ValueError naming the allowed ones otherwise."""
+    """The module of experiment ``name``; InputError naming the allowed ones otherwise."""
     if name not in EXPERIMENTS:
         raise InputError(f"unknown experiment {name!r}; allowed: {', '.join(EXPERIMENTS)}")
     return import_module(f"cml_edge.experiments.{name}")

@@ -14,10 +14,12 @@ import argparse
 import json
 import sys
 
+from cml_edge.cli.args import positive_int
 from cml_edge.core.cml import CMLConfig
+from cml_edge.errors import InputError
 from cml_edge.grid.evaluation import run_protocol
 from cml_edge.grid.training import TrainConfig
-from cml_edge.storage import atomic_write_text
+from cml_edge.storage import atomic_write_text, writable_file
 
 VARIANTS = {
     "defaults (centred frame, W_q ~ N(0, 1/256), normalised utility)": {},
@@ -32,8 +34,13 @@ KEYS = ("success_rate", "e_pos_mean", "overhead_mean", "overhead_median")
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=None, help="also write the rows as JSON")
-    parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--seeds", type=positive_int, default=10)
     args = parser.parse_args(argv)
+    if args.out:
+        try:
+            writable_file(args.out, "--out")
+        except InputError as exc:
+            parser.error(str(exc))
     rows = []
     print("| variant | explore | success | e_pos mean | overhead mean | overhead median |")
     print("|---|---|---|---|---|---|")

@@ -5,7 +5,7 @@ per-walk updates, seed = model seed) and evaluates it under a list of evaluation
 conditions (an arena, obstacles, a map and its scenarios, a planner, a step budget),
 all on pairs drawn from the evaluation seed, so every configuration sees the same
 pairs. It returns per-trial finals and steps, so the pooled metrics over seeds
-(:func:`pool`) are the exact ones of :func:`cml_edge.metrics.summarize` over all
+(:func:`pool`) are the exact ones of :func:`cml_edge.grid.metrics.summarize` over all
 seeds x trials, whatever ran the tasks.
 
 An experiment module defines ``NAME``, ``CLAIM`` (the paper's qualitative claim it
@@ -16,7 +16,6 @@ rest (sweep, ``results.json``, ``results.csv``, ``figure.png``).
 
 from __future__ import annotations
 
-import argparse
 import csv
 import io
 import json
@@ -27,13 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.cml import CMLConfig
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
 from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
-from cml_edge.grid.metrics import Pairs, draw_pairs, e_pos, summarize
-from cml_edge.grid.planning import plan
-from cml_edge.grid.training import TrainConfig, train
+from cml_edge.grid.metrics import Pairs, draw_pairs, summarize
+from cml_edge.grid.training import TrainConfig
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.storage import atomic_write_text
 from cml_edge.sweep import Task, run_sweep
@@ -78,43 +77,35 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
                backend_options: dict[str, Any] | None = None, path: str | None = None,
                epoch: int = 10, curve: bool = False, curve_trials: int = 100,
                eval_seed: int = EVAL_SEED) -> dict[str, Any]:
-    """The task of every experiment: train model ``seed``, then run each of ``evals``.
+    """The task of every experiment: train model ``seed``, then run each of ``evals``
+    (:func:`cml_edge.grid.evaluation.train_and_evaluate`; ``path`` None: its default).
 
     With ``curve``, the model is evaluated on the empty training arena every ``epoch``
     walks (the paper's Figure 4B / 5 curves: e_pos mean, success, overhead mean).
     """
-    backend_options = backend_options or {}
-    path = path or ("factored" if backend == "float" else "direct")
-    cml = CML.create(CMLConfig.for_arena(arena), backend, seed, **backend_options)
     train_arena = GridArena.empty(arena)
-    points: list[dict[str, Any]] = []
-    if curve:
-        cpairs = draw_pairs(train_arena, curve_trials, eval_seed)
-
-        def on_epoch(done: int) -> None:
-            r = plan(cml, train_arena, cpairs.starts, cpairs.goals, path=path)
-            s = summarize(r.final, r.steps, cpairs)
-            points.append({"walks": done, "train_steps": done * steps,
-                           "e_pos_mean": float(e_pos(r.final, cpairs.goals).mean()),
-                           "success_rate": s["success_rate"],
-                           "overhead_mean": s["overhead_mean"]})
-    else:
-        on_epoch = None  # type: ignore[assignment]
-    errors = train(cml, train_arena, TrainConfig(walks, steps, explore), seed, path=path,
-                   epoch=epoch, on_epoch=on_epoch)
+    training = Training(train_arena, TrainConfig(walks, steps, explore),
+                        CMLConfig.for_arena(arena), backend, backend_options or {}, path, epoch)
+    settings = [_eval_setting(spec, arena) for spec in evals]
+    evaluations = [Evaluation(ev_arena, pairs, budget, spec["planner"])
+                   for spec, (ev_arena, pairs, budget) in zip(evals, settings)]
+    curve_eval = (Evaluation(train_arena, draw_pairs(train_arena, curve_trials, eval_seed))
+                  if curve else None)
+    run = train_and_evaluate(seed, training, evaluations, curve=curve_eval)
+    points = [{"walks": p["walks"], "train_steps": p["walks"] * steps,
+               **{k: p[k] for k in ("e_pos_mean", "success_rate", "overhead_mean")}}
+              for p in run.curve]
     out_evals = []
-    for spec in evals:
-        ev_arena, pairs, budget = _eval_setting(spec, arena)
-        res = plan(cml, ev_arena, pairs.starts, pairs.goals, max_steps=budget, path=path,
-                   planner=spec["planner"])
-        out_evals.append({**spec, "max_steps": budget, "eval_arena": ev_arena.size,
-                          **summarize(res.final, res.steps, pairs),
+    for spec, ev, res, summary in zip(evals, evaluations, run.results, run.summaries):
+        pairs = ev.pairs
+        out_evals.append({**spec, "max_steps": ev.max_steps, "eval_arena": ev.arena.size,
+                          **summary,
                           "final": res.final.tolist(), "steps": res.steps.tolist(),
                           "starts": pairs.starts.tolist(), "goals": pairs.goals.tolist(),
                           "chebyshev": pairs.chebyshev.tolist(),
                           "geodesic": pairs.geodesic.tolist()})
-    return {"seed": int(seed), "backend": backend, "path": path,
-            "train_error": errors.tolist(), "curve": points, "evals": out_evals}
+    return {"seed": int(seed), "backend": backend, "path": run.path,
+            "train_error": run.train_error.tolist(), "curve": points, "evals": out_evals}
 
 
 def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Task]:
@@ -126,7 +117,7 @@ def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Ta
 
 
 def reject(name: str, **given: Any) -> None:
-    """ValueError naming the options experiment ``name`` does not take."""
+    """InputError naming the options experiment ``name`` does not take."""
     bad = [k for k, v in given.items() if v]
     if bad:
         raise InputError(f"experiment {name!r} does not take --{bad[0]}")
@@ -235,13 +226,10 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
 
 
 def main_for(module: Any, argv: list[str] | None = None) -> None:
-    """``python -m cml_edge.experiments.NAME``: the sweep with the module's defaults."""
-    parser = argparse.ArgumentParser(description=module.__doc__.splitlines()[0])
-    parser.add_argument("--out", default=None, help=f"folder (default {OUT_ROOT}/NAME)")
-    parser.add_argument("--workers", type=int, default=None, help="local processes")
-    parser.add_argument("--scheduler", default=None, help="Dask scheduler address")
-    parser.add_argument("--seeds", type=int, default=DEFAULT_SEEDS)
-    args = parser.parse_args(argv)
-    summary = run_experiment(module, args.out, args.workers, args.scheduler, seeds=args.seeds)
-    print(markdown_table(summary["rows"], module.COLUMNS))
-    sys.stdout.flush()
+    """``python -m cml_edge.experiments.NAME [options]``: ``cml-edge sweep NAME [options]``
+    (the same options, checks and exit status)."""
+    from cml_edge.cli import main
+
+    argv = ["sweep", module.NAME, *(sys.argv[1:] if argv is None else argv)]
+    sys.argv = ["cml-edge", *argv]  # the provenance names the command as typed
+    sys.exit(main(argv))

@@ -5,7 +5,7 @@
 Trained on the empty 30 x 30 arena (random or mixed, 10 seeds, float64, factored path),
 evaluated on 100 fixed pairs of the empty 30 x 30, 60 x 60 and 120 x 120 arenas. The
 observation frame stays the training one (o = (p - 14.5) / 30, so |o| reaches 3.5 on
-120 x 120). Step budget: :func:`cml_edge.maps.step_budget`, 100 x side / 30 actions
+120 x 120). Step budget: :func:`cml_edge.grid.maps.step_budget`, 100 x side / 30 actions
 (100, 200, 400), so the longest pair stays within reach. The paper: mixed generalises
 better (lower median e_pos and overhead on the larger arenas). Also with the short
 training of :mod:`cml_edge.experiments.exploration` (100 walks x 100 steps).

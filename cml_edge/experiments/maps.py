@@ -6,7 +6,7 @@
 For each map, ten CMLs are trained in the empty arena of the map's size (mapless: the
 map is never seen in training; random exploration, float64, factored path) and plan
 the map's scenarios (or 100 pairs from the evaluation seed without ``--scen``) with
-both planners. Step budget: :func:`cml_edge.maps.step_budget` (107 on a 32 x 32 map).
+both planners. Step budget: :func:`cml_edge.grid.maps.step_budget` (107 on a 32 x 32 map).
 """
 
 from __future__ import annotations

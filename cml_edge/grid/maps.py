@@ -19,7 +19,7 @@ goal y, optimal length.
 Conventions of this package:
 
 - Coordinates: x is the column and y the row of the file (row 0 first), as in the
-  benchmark; a :class:`~cml_edge.arena.GridArena` is indexed ``[x, y]``, so
+  benchmark; a :class:`~cml_edge.grid.arena.GridArena` is indexed ``[x, y]``, so
   ``blocked[x, y]`` is the character at row y, column x.
 - Square arenas: the CML lives on an N x N grid. A map of H != W is padded to
   N = max(H, W) with blocked cells on the right (columns W..N-1) or at the bottom
@@ -27,7 +27,7 @@ Conventions of this package:
 - Moves: the agent's 8 king moves may cut a corner between two blocked cells (as in
   :mod:`cml_edge.grid.arena`), where the benchmark forbids it. The ``optimal length`` column
   of a scenario is therefore kept only as a record; every metric uses this package's
-  BFS step count (:func:`cml_edge.metrics.geodesic_distances`). The scenarios shipped
+  BFS step count (:func:`cml_edge.grid.metrics.geodesic_distances`). The scenarios shipped
   in ``cml_edge/data/maps`` carry the octile length of a shortest path under this
   package's moves.
 - Step budget on a map: :func:`step_budget` (the paper's 100 actions per 30 cells of
@@ -105,10 +105,6 @@ def step_budget(side: int) -> int:
     Chebyshev distance) for larger arenas: 200 on 60 x 60, 400 on 120 x 120.
     """
     return max(PAPER_BUDGET, math.ceil(PAPER_BUDGET * side / PAPER_SIDE))
-
-
-def _where(path: str | Path, line: int) -> str:
-    return f"{Path(path).name} line {line}"
 
 
 def parse_map(text: str, name: str = "<map>") -> GridMap:
@@ -238,7 +234,7 @@ def format_scen(map_name: str, grid: GridMap, pairs: list[tuple[tuple[int, int],
 
 
 def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>") -> Pairs:
-    """The scenarios as evaluation :class:`~cml_edge.metrics.Pairs` on ``grid.arena()``.
+    """The scenarios as evaluation :class:`~cml_edge.grid.metrics.Pairs` on ``grid.arena()``.
 
     Each problem must fit the map (its width and height agree, start and goal are free
     cells); BFS geodesics use this package's moves.

@@ -27,12 +27,17 @@ import numpy as np
 from cml_edge import __version__, budget
 from cml_edge.backends import BACKENDS, report_systems
 from cml_edge.baselines import load_results
-from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.cml import CMLConfig
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.evaluation import (
+    Evaluation,
+    Training,
+    default_path,
+    run_protocol,
+    train_and_evaluate,
+)
 from cml_edge.grid.metrics import convergence_index, draw_pairs
-from cml_edge.grid.planning import plan
-from cml_edge.grid.training import TrainConfig, train
+from cml_edge.grid.training import TrainConfig
 from cml_edge.protocol import EVAL_SEED
 
 SCHEMA_VERSION = 1
@@ -62,22 +67,21 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
     """One model trained and planned operation by operation: counters per phase."""
     arena = GridArena.empty(30)
     config = TrainConfig(explore=explore)
-    cml = CML.create(CMLConfig.for_arena(30), backend, 0, **options)
-    t0 = time.perf_counter()
-    train(cml, arena, config, seed=0, path="direct")
-    train_s = time.perf_counter() - t0
-    train_counters = cml.counters()
-    cml.reset_counters()
-    pairs = draw_pairs(arena, trials, EVAL_SEED)
-    res = plan(cml, arena, pairs.starts, pairs.goals, path="direct")
+    training = Training(arena, config, CMLConfig.for_arena(30), backend, options,
+                        default_path(backend, config.schedule, options, counted=True))
+    run = train_and_evaluate(0, training, [Evaluation(arena, draw_pairs(arena, trials,
+                                                                        EVAL_SEED))])
+    cml, (res,) = run.cml, run.results
     steps = int(res.steps.sum())
     examples = [res.paths[i, : res.steps[i] + 1].tolist() for i in range(N_EXAMPLES)]
-    return {"example_paths": examples, "train_counters": train_counters,
-            "plan_counters": cml.counters(),
+    return {"example_paths": examples, "train_counters": run.train_counters,
+            "plan_counters": run.eval_counters,
             "train_steps": config.walks * config.steps, "plan_steps": steps,
-            "train_wall_s": train_s, "technology": budget.technology(cml),
+            "train_wall_s": run.wall_s[-1], "technology": budget.technology(cml),
             "memory": budget.cml_memory(cml, explore, 30),
-            "factored": budget.cml_factored_traffic(cml, config.walks, config.steps)}
+            "factored": budget.cml_factored_traffic(cml, config.walks, config.steps),
+            "parameters": cml.parameter_count(),
+            "inference_flops_formula": cml.inference_flops()}
 
 
 def _macs(counters: dict[str, int]) -> int:
@@ -88,21 +92,20 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
             progress: Callable[[str], None]) -> dict[str, Any]:
     """Accuracy on the protocol and the ledger of one CML system."""
     progress(f"{label}: protocol")
-    acc = run_protocol(backend, range(seeds), trials, path="direct", epoch=1, **options)
+    acc = run_protocol(backend, range(seeds), trials, epoch=1, **options)
     progress(f"{label}: operations")
     ops = measure_operations(backend, options)
     e_train, e_sources = budget.energy_pj(ops["technology"], ops["train_counters"])
     e_plan, _ = budget.energy_pj(ops["technology"], ops["plan_counters"])
     tc = ops["train_counters"]
-    cml = CML.create(CMLConfig.for_arena(30), backend, 0, **options)
     return {
         "label": label, "backend": backend, "options": options, "kind": "cml",
         **{k: acc[k] for k in ("seeds", "trials", "success_rate", "e_pos_mean",
                                "e_pos_median", "overhead_mean", "overhead_median")},
         "curve_e_pos_mean": acc["curve_e_pos_mean"],
         "epoch_steps": acc["epoch_walks"] * acc["steps"],
-        "parameters": cml.parameter_count(),
-        "inference_flops_formula": cml.inference_flops(),
+        "parameters": ops["parameters"],
+        "inference_flops_formula": ops["inference_flops_formula"],
         "inference_flops_counted": counted_flops(_macs(ops["plan_counters"]), ops["plan_steps"]),
         **ops["memory"],
         "train_steps": ops["train_steps"],
@@ -134,7 +137,7 @@ def counted_flops(macs: int, steps: int) -> float:
 
 def steps_to_converge(curve: list[float], epoch_steps: int) -> int | None:
     """Training steps until the evaluation e_pos (one point every ``epoch_steps``) stays
-    within half a cell of its final value: :func:`cml_edge.metrics.convergence_index`,
+    within half a cell of its final value: :func:`cml_edge.grid.metrics.convergence_index`,
     the criterion ``cml-edge dqn evaluate`` applies to the DQN."""
     if not curve:
         return None
@@ -203,8 +206,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     sweep_rows = []
     for figure, label, backend, opts in sweeps:
         progress(f"sweep {label}")
-        r = run_protocol(backend, range(prof["sweep_seeds"]), prof["trials"], path="direct",
-                         **opts)
+        r = run_protocol(backend, range(prof["sweep_seeds"]), prof["trials"], **opts)
         sweep_rows.append({"figure": figure, "label": label, "backend": backend,
                            "options": opts, **{k: r[k] for k in (
                                "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})
