@@ -1,9 +1,38 @@
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.spatial import cKDTree
 
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.exploration import VisitedSet, knn_novelty, random_action, threshold
+from cml_edge.grid.exploration import knn_novelty, random_action, threshold
+
+
+class VisitedSet:
+    """The reference the compiled index is held to: distinct cells, scipy's cKDTree."""
+
+    def __init__(self) -> None:
+        self.cells: list[tuple[int, int]] = []
+        self._seen: set[tuple[int, int]] = set()
+        self._tree: cKDTree | None = None
+
+    def add(self, x: int, y: int) -> None:
+        if (x, y) not in self._seen:
+            self._seen.add((x, y))
+            self.cells.append((x, y))
+            self._tree = None
+
+    def novelty(self, x: int, y: int, k: int = 5) -> float:
+        """Eq. 4: sum of distances to the k nearest visited cells, summed in ascending order."""
+        m = min(k, len(self.cells))
+        if m == 0:
+            return 0.0
+        if self._tree is None:
+            self._tree = cKDTree(np.array(self.cells, dtype=np.float64))
+        dist, _ = self._tree.query([float(x), float(y)], k=m)
+        total = 0.0
+        for d in np.atleast_1d(dist):
+            total += float(d)
+        return total
 
 
 def test_threshold_is_eq_5():

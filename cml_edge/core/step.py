@@ -120,62 +120,60 @@ class SeamLearner(NamedTuple):
     lr_k: float
     lr_v: float
     defer: bool  # the per-walk schedule: accumulate, commit at the walk's end
-    s: np.ndarray  # (n_s) s_t
-    ds: np.ndarray  # (n_s) s_{t+1} - s_t
-    va: np.ndarray  # (n_s) W_v a_t
-    e: np.ndarray  # (n_s) e_t
-    neg_e: np.ndarray  # (n_s) -e_t
-    z: np.ndarray  # (n_a) W_k s_t
-    g: np.ndarray  # (n_a) the affordance
-    post_k: np.ndarray  # (n_a) a_t - g_t
-    action: np.ndarray  # (n_a) a_t, one-hot
-    d_o: np.ndarray  # (n_i) o_{t+1} - o_t
+    buf: tuple  # work vectors: s, ds, va, e, -e (n_s); z, g, a - g, a (n_a); o_1 - o_t (n_i)
 
     @classmethod
     def of(cls, cml: Any, defer: bool) -> SeamLearner:
         c = cml.config
         q, k, v = (arr.state for arr in cml.arrays)
-        vec = np.zeros
-        return cls(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), vec(c.n_s), vec(c.n_s),
-                   vec(c.n_s), vec(c.n_s), vec(c.n_s), vec(c.n_a), vec(c.n_a), vec(c.n_a),
-                   vec(c.n_a), vec(c.n_i))
+        buf = (*(np.zeros(c.n_s) for _ in range(5)), *(np.zeros(c.n_a) for _ in range(4)),
+               np.zeros(c.n_i))
+        return cls(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), buf)
 
 
 @njit(cache=True, inline="always")
-def seam_learn(lr, o_t, o_1, a):
+def seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf):
     """One step of Eqs. 1-3 (the compiled twin of :func:`cml_edge.core.learning.learn_step`,
     held to bit equality by the tests); returns ||e_t||. All reads precede the updates."""
-    action = lr.action
+    s, ds, va, e, neg_e, z, g, post_k, action, d_o = buf
     for i in range(action.shape[0]):
         action[i] = 0.0
     action[a] = 1.0
-    sa_matvec(lr.q, o_t, lr.s)  # s_t = W_q o_t
-    sa_matvec(lr.k, lr.s, lr.z)
-    sa_sigmoid(lr.k, lr.z, lr.g)  # g_t = sigmoid(W_k s_t)
-    for i in range(lr.d_o.shape[0]):
-        lr.d_o[i] = o_1[i] - o_t[i]
-    sa_matvec(lr.q, lr.d_o, lr.ds)  # s_{t+1} - s_t, one read
-    sa_matvec(lr.v, action, lr.va)  # W_v a_t
+    sa_matvec(q, o_t, s)  # s_t = W_q o_t
+    sa_matvec(k, s, z)
+    sa_sigmoid(k, z, g)  # g_t = sigmoid(W_k s_t)
+    for i in range(d_o.shape[0]):
+        d_o[i] = o_1[i] - o_t[i]
+    sa_matvec(q, d_o, ds)  # s_{t+1} - s_t, one read
+    sa_matvec(v, action, va)  # W_v a_t
     sq = 0.0
-    for i in range(lr.e.shape[0]):
-        lr.e[i] = lr.ds[i] - lr.va[i]  # e_t = s_{t+1} - s_hat_{t+1}
-        lr.neg_e[i] = -lr.e[i]
-        sq += lr.e[i] * lr.e[i]
+    for i in range(e.shape[0]):
+        e[i] = ds[i] - va[i]  # e_t = s_{t+1} - s_hat_{t+1}
+        neg_e[i] = -e[i]
+        sq += e[i] * e[i]
     for i in range(action.shape[0]):
-        lr.post_k[i] = action[i] - lr.g[i]
-    sa_outer_update(lr.k, lr.post_k, lr.s, lr.lr_k, lr.defer)  # Eq. 1
-    sa_outer_update(lr.v, lr.e, action, lr.lr_v, lr.defer)  # Eq. 2
-    sa_outer_update(lr.q, lr.neg_e, o_1, lr.lr_q, lr.defer)  # Eq. 3
+        post_k[i] = action[i] - g[i]
+    sa_outer_update(k, post_k, s, lr_k, defer)  # Eq. 1
+    sa_outer_update(v, e, action, lr_v, defer)  # Eq. 2
+    sa_outer_update(q, neg_e, o_1, lr_q, defer)  # Eq. 3
     return math.sqrt(sq)
 
 
+# (the plug-ins pass their fields on as arguments: Numba keeps that as cheap as a loop's
+# own variables, where reading them one by one inside the step costs reference counts)
 @njit(cache=True, inline="always")
-def seam_begin_walk(lr):
+def _seam_learn(lr, o_t, o_1, a):
+    return seam_learn(lr.q, lr.k, lr.v, o_t, o_1, a, lr.lr_q, lr.lr_k, lr.lr_v, lr.defer,
+                      lr.buf)
+
+
+@njit(cache=True, inline="always")
+def _seam_begin_walk(lr):
     pass
 
 
 @njit(cache=True, inline="always")
-def seam_end_walk(lr):
+def _seam_end_walk(lr):
     if lr.defer:
         sa_commit(lr.q)
         sa_commit(lr.k)
@@ -192,43 +190,47 @@ class SeamScorer(NamedTuple):
     norms: np.ndarray  # (n_a) W_v's column norms (or ones), from prepare
     gram: np.ndarray  # (n_a, n_a) W_v^T W_v, from prepare when asked
     cols: np.ndarray  # (n_a, n_s) W_v's columns as read
-    onehot: np.ndarray  # (n_a)
-    d: np.ndarray  # (n_s) s* - s
-    s: np.ndarray  # (n_s)
-    z: np.ndarray  # (n_a)
-    g: np.ndarray  # (n_a)
+    buf: tuple  # work vectors: one-hot (n_a), d = s* - s, s (n_s), z, g (n_a)
 
     @classmethod
     def of(cls, cml: Any) -> SeamScorer:
         c = cml.config
         q, k, v = (arr.state for arr in cml.arrays)
+        buf = (np.zeros(c.n_a), np.zeros(c.n_s), np.zeros(c.n_s), np.zeros(c.n_a),
+               np.zeros(c.n_a))
         return cls(q, k, v, np.ones(c.n_a), np.zeros((c.n_a, c.n_a)), np.zeros((c.n_a, c.n_s)),
-                   np.zeros(c.n_a), np.zeros(c.n_s), np.zeros(c.n_s), np.zeros(c.n_a),
-                   np.zeros(c.n_a))
+                   buf)
 
 
 @njit(cache=True)
-def seam_prepare(sc, normalize, gram):
+def _seam_prepare(sc, normalize, gram):
     if not (normalize or gram):  # nothing to read
-        for a in range(sc.norms.shape[0]):
-            sc.norms[a] = 1.0
+        sc.norms[:] = 1.0
         return
-    for a in range(sc.onehot.shape[0]):  # W_v's columns, one read each
-        sc.onehot[:] = 0.0
-        sc.onehot[a] = 1.0
-        sa_matvec(sc.v, sc.onehot, sc.cols[a])
+    onehot = sc.buf[0]
+    for a in range(onehot.shape[0]):  # W_v's columns, one read each
+        onehot[:] = 0.0
+        onehot[a] = 1.0
+        sa_matvec(sc.v, onehot, sc.cols[a])
     norms_and_gram(sc.cols, normalize, gram, sc.norms, sc.gram)
 
 
 @njit(cache=True, inline="always")
-def seam_scores(sc, o, dgo, u, score):
-    sa_matvec(sc.q, dgo, sc.d)  # d = s* - s, one read
-    sa_rmatvec(sc.v, sc.d, u)  # u = W_v^T d
-    sa_matvec(sc.q, o, sc.s)
-    sa_matvec(sc.k, sc.s, sc.z)
-    sa_sigmoid(sc.k, sc.z, sc.g)  # affordance
+def seam_scores(q, k, v, o, dgo, norms, u, score, buf):
+    """u = W_v^T W_q (o* - o) and score = u / norms x sigmoid(W_k W_q o), through the seam."""
+    _, d, s, z, g = buf
+    sa_matvec(q, dgo, d)  # d = s* - s, one read
+    sa_rmatvec(v, d, u)  # u = W_v^T d
+    sa_matvec(q, o, s)
+    sa_matvec(k, s, z)
+    sa_sigmoid(k, z, g)  # affordance
     for a in range(score.shape[0]):
-        score[a] = u[a] / sc.norms[a] * sc.g[a]
+        score[a] = u[a] / norms[a] * g[a]
+
+
+@njit(cache=True, inline="always")
+def _seam_scores(sc, o, dgo, u, score):
+    seam_scores(sc.q, sc.k, sc.v, o, dgo, sc.norms, u, score, sc.buf)
 
 
 # the factored float64 shortcut ------------------------------------------------------------
@@ -242,38 +244,46 @@ class FactoredScorer(NamedTuple):
     M: np.ndarray  # (n_a, n_i)
     norms: np.ndarray
     gram: np.ndarray
+    inv: np.ndarray  # 1 / norms
 
     @classmethod
     def of(cls, cml: Any) -> FactoredScorer:
         c = cml.config
         return cls(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W, np.zeros((c.n_a, c.n_i)),
-                   np.zeros((c.n_a, c.n_i)), np.ones(c.n_a), np.zeros((c.n_a, c.n_a)))
+                   np.zeros((c.n_a, c.n_i)), np.ones(c.n_a), np.zeros((c.n_a, c.n_a)),
+                   np.ones(c.n_a))
 
 
 @njit(cache=True)
-def factored_prepare(sc, normalize, gram):
+def _factored_prepare(sc, normalize, gram):
     sc.R[:] = sc.Wv.T @ sc.Wq
     sc.M[:] = sc.Wk @ sc.Wq
     norms_and_gram(np.ascontiguousarray(sc.Wv.T), normalize, gram, sc.norms, sc.gram)
+    sc.inv[:] = 1.0 / sc.norms
 
 
 @njit(cache=True, inline="always")
-def factored_scores(sc, o, dgo, u, score):
-    n_i = o.shape[0]
+def factored_scores(R, M, inv, o, dgo, u, score):
+    """u = R (o* - o) and score = u / norms x sigmoid(M o), from the per-batch maps."""
     for a in range(score.shape[0]):
         ua = 0.0
         z = 0.0
-        for j in range(n_i):
-            ua += sc.R[a, j] * dgo[j]
-            z += sc.M[a, j] * o[j]
+        for j in range(o.shape[0]):
+            ua += R[a, j] * dgo[j]
+            z += M[a, j] * o[j]
         u[a] = ua
-        score[a] = ua / sc.norms[a] * (1.0 / (1.0 + math.exp(-z)))
+        score[a] = ua * inv[a] / (1.0 + math.exp(-z))
 
 
-begin_walk.register(SeamLearner, seam_begin_walk)
-learn.register(SeamLearner, seam_learn)
-end_walk.register(SeamLearner, seam_end_walk)
-prepare.register(SeamScorer, seam_prepare)
-scores.register(SeamScorer, seam_scores)
-prepare.register(FactoredScorer, factored_prepare)
-scores.register(FactoredScorer, factored_scores)
+@njit(cache=True, inline="always")
+def _factored_scores(sc, o, dgo, u, score):
+    factored_scores(sc.R, sc.M, sc.inv, o, dgo, u, score)
+
+
+begin_walk.register(SeamLearner, _seam_begin_walk)
+learn.register(SeamLearner, _seam_learn)
+end_walk.register(SeamLearner, _seam_end_walk)
+prepare.register(SeamScorer, _seam_prepare)
+scores.register(SeamScorer, _seam_scores)
+prepare.register(FactoredScorer, _factored_prepare)
+scores.register(FactoredScorer, _factored_scores)

@@ -12,17 +12,14 @@ onwards is purely random (Figure 2D); ties in novelty are broken uniformly at ra
 
 The nearest-neighbour search is a compiled grid index (:func:`knn_novelty`): it scans
 Chebyshev rings around the query and stops as soon as no unscanned ring can hold a
-closer point; the Python reference path uses scipy's cKDTree instead, and the tests
-check the two agree.
+closer point; the tests check it against scipy's cKDTree.
 
 Randomness: walk ``w`` starts on the free cell drawn at counter w of the walk-start
 stream; step ``n`` of training draws at counters 4n (threshold), 4n + 1 (random move) and
 4n + 2 (novelty tie-break) of the exploration stream.
 
-The training loop (:func:`cml_edge.grid.training.train_loop`) explores through three
-functions routed by the explorer's type: :func:`start_walk`, :func:`explore` and
-:func:`visit`; :class:`GridExplorer` is the compiled explorer, :class:`ReferenceExplorer`
-the reference path's.
+Every compute path of the training loop (:func:`cml_edge.grid.training.train_loop`)
+explores with these compiled functions, so the walks are the same on every path.
 """
 
 from __future__ import annotations
@@ -32,13 +29,11 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
-from scipy.spatial import cKDTree
 
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, NTH_MOVE, POPCOUNT, GridArena
 from cml_edge.protocol import STREAM_EXPLORE, STREAM_WALK_START
-from cml_edge.rng import randint, stream_key, uniform
-from cml_edge.routing import routed
+from cml_edge.rng import stream_key, uniform
 
 EXPLORATIONS = ("random", "mixed")
 RANDOM, MIXED = 0, 1
@@ -74,7 +69,7 @@ def knn_novelty(visited, n_visited, x, y, k, best):
 
     ``visited`` is a uint8 (N, N) grid of visited cells, ``n_visited`` their number and
     ``best`` a float64 work buffer of length >= k. The distances are summed in
-    ascending order (as the reference sums cKDTree's sorted output).
+    ascending order (as scipy's cKDTree returns them).
     """
     m = min(k, n_visited)
     if m == 0:
@@ -160,69 +155,12 @@ def nth_free_cell(free, idx):
     return -1, -1
 
 
-class VisitedSet:
-    """The reference path's visited set: distinct cells, queried with scipy's cKDTree."""
-
-    def __init__(self) -> None:
-        self.cells: list[tuple[int, int]] = []
-        self._seen: set[tuple[int, int]] = set()
-        self._tree: cKDTree | None = None
-
-    def add(self, x: int, y: int) -> None:
-        if (x, y) not in self._seen:
-            self._seen.add((x, y))
-            self.cells.append((x, y))
-            self._tree = None
-
-    def novelty(self, x: int, y: int, k: int = K_NEAREST) -> float:
-        """Eq. 4: sum of distances to the k nearest visited cells, summed in ascending order."""
-        m = min(k, len(self.cells))
-        if m == 0:
-            return 0.0
-        if self._tree is None:
-            self._tree = cKDTree(np.array(self.cells, dtype=np.float64))
-        dist, _ = self._tree.query([float(x), float(y)], k=m)
-        total = 0.0
-        for d in np.atleast_1d(dist):
-            total += float(d)
-        return total
-
-
-def choose_action_reference(explore: int, arena: GridArena, visited: VisitedSet, x: int, y: int,
-                            t_expl: float, key, step: int) -> int:
-    """Plain-Python twin of :func:`choose_action`, with cKDTree novelty."""
-    moves = [a for a in range(N_ACTIONS) if arena.is_free((x + MOVES[a, 0], y + MOVES[a, 1]))]
-    if not moves:
-        return -1
-    ctr = 4 * step
-    if explore == MIXED and uniform(key, ctr) < t_expl:
-        novelty = {a: visited.novelty(x + MOVES[a, 0], y + MOVES[a, 1]) for a in moves}
-        top = max(novelty.values())
-        moves = [a for a, v in novelty.items() if v == top]
-        u = uniform(key, ctr + 2)
-    else:
-        u = uniform(key, ctr + 1)
-    return moves[min(int(u * len(moves)), len(moves) - 1)]
-
-
-# the explorer plug-ins of the training loop --------------------------------------------------
-@routed
-def start_walk(explorer, w):
-    """Walk ``w`` starts: its start cell (x, y), visited; its t_expl (Eq. 5) is set."""
-
-
-@routed
-def explore(explorer, x, y, step):
-    """The exploration move from (x, y) at global training step ``step``."""
-
-
-@routed
-def visit(explorer, x, y):
-    """The agent has arrived at (x, y)."""
-
-
+# the exploration state of a training run -------------------------------------------------------
 class GridExplorer(NamedTuple):
-    """The compiled explorer: the visited cells as a grid, novelty by the grid index."""
+    """What exploration remembers across the walks of one training run (the visited cells
+    since training began, Eq. 4) and the arena and streams it draws from. The training loop
+    (:func:`cml_edge.grid.training.train_loop`) unpacks it once and calls
+    :func:`choose_action` with its arrays."""
 
     free: np.ndarray  # uint8 (N, N)
     masks: np.ndarray  # uint8 (N, N) available moves per cell
@@ -232,74 +170,22 @@ class GridExplorer(NamedTuple):
     n_free: int
     code: int  # RANDOM or MIXED
     n_expl: int  # N_expl of Eq. 5
-    t_expl: np.ndarray  # float64[1]: this walk's threshold
     novelty: np.ndarray  # float64[N_ACTIONS] work vector
     best: np.ndarray  # float64[K_NEAREST] work vector
 
     @classmethod
     def of(cls, arena: GridArena, config: Any, seed: int) -> GridExplorer:
         free = arena.free
-        return cls(free, arena.move_masks, np.zeros_like(free), np.zeros(1, np.int64),
-                   _keys(seed), int(free.sum()), explore_code(config.explore), config.n_expl,
-                   np.zeros(1), np.zeros(N_ACTIONS), np.zeros(K_NEAREST))
-
-
-def _keys(seed: int) -> np.ndarray:
-    return np.array([stream_key(seed, STREAM_WALK_START), stream_key(seed, STREAM_EXPLORE)],
-                    dtype=np.uint64)
+        keys = np.array([stream_key(seed, STREAM_WALK_START), stream_key(seed, STREAM_EXPLORE)],
+                        dtype=np.uint64)
+        return cls(free, arena.move_masks, np.zeros_like(free), np.zeros(1, np.int64), keys,
+                   int(free.sum()), explore_code(config.explore), config.n_expl,
+                   np.zeros(N_ACTIONS), np.zeros(K_NEAREST))
 
 
 @njit(cache=True, inline="always")
-def grid_visit(ex, x, y):
-    if not ex.visited[x, y]:
-        ex.visited[x, y] = 1
-        ex.n_visited[0] += 1
-
-
-@njit(cache=True, inline="always")
-def grid_start_walk(ex, w):
-    x, y = nth_free_cell(ex.free, randint(ex.keys[0], w, ex.n_free))
-    grid_visit(ex, x, y)
-    ex.t_expl[0] = threshold(w, ex.n_expl)
-    return x, y
-
-
-@njit(cache=True, inline="always")
-def grid_explore(ex, x, y, step):
-    return choose_action(ex.code, ex.masks, ex.visited, ex.n_visited[0], x, y, ex.t_expl[0],
-                         ex.keys[1], step, ex.novelty, ex.best)
-
-
-class ReferenceExplorer:
-    """The reference path's explorer: a Python set of visited cells, cKDTree novelty."""
-
-    def __init__(self, arena: GridArena, config: Any, seed: int) -> None:
-        self.arena = arena
-        self.free = arena.free
-        self.n_free = int(self.free.sum())
-        self.keys = _keys(seed)
-        self.code = explore_code(config.explore)
-        self.n_expl = config.n_expl
-        self.visited = VisitedSet()
-        self.t_expl = 0.0
-
-    def start_walk(self, w: int) -> tuple[int, int]:
-        x, y = nth_free_cell(self.free, randint(self.keys[0], w, self.n_free))
-        self.visited.add(x, y)
-        self.t_expl = threshold(w, self.n_expl)
-        return x, y
-
-    def explore(self, x: int, y: int, step: int) -> int:
-        return choose_action_reference(self.code, self.arena, self.visited, int(x), int(y),
-                                       self.t_expl, self.keys[1], step)
-
-    def visit(self, x: int, y: int) -> None:
-        self.visited.add(int(x), int(y))
-
-
-start_walk.register(GridExplorer, grid_start_walk)
-explore.register(GridExplorer, grid_explore)
-visit.register(GridExplorer, grid_visit)
-start_walk.register(ReferenceExplorer, ReferenceExplorer.start_walk)
-explore.register(ReferenceExplorer, ReferenceExplorer.explore)
-visit.register(ReferenceExplorer, ReferenceExplorer.visit)
+def visit(visited, n_visited, x, y):
+    """Mark (x, y) visited (Eq. 4's set of cells visited since training began)."""
+    if not visited[x, y]:
+        visited[x, y] = 1
+        n_visited[0] += 1

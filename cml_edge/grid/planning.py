@@ -109,6 +109,7 @@ def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goa
               res):
     """Plan every (start, goal) pair (the module docstring), for any scorer and chooser."""
     prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
+    norms, K = scorer.norms, scorer.gram
     o = np.zeros(2)
     dgo = np.zeros(2)
     u = np.zeros(N_ACTIONS)
@@ -131,7 +132,7 @@ def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goa
             scores(scorer, o, dgo, u, score)
             if available_moves(free, x, y, mask) == 0:
                 break
-            a = choose(chooser, free, x, y, u, score, scorer.norms, scorer.gram, mask)
+            a = choose(chooser, free, x, y, u, score, norms, K, mask)
             x += MOVES[a, 0]
             y += MOVES[a, 1]
             taken += 1

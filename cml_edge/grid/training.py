@@ -2,16 +2,14 @@
 
 :func:`train_loop` states the training once: each walk starts on a random free cell, each
 step picks an exploration move, reads the observations of the two cells and runs the
-local rule (Eqs. 1-3), and the walk's end applies what it accumulated. The explorer and
-the learner are plug-ins routed by type (:mod:`cml_edge.core.step`), which makes the
-three paths:
+local rule (Eqs. 1-3), and the walk's end applies what it accumulated. Exploration is
+the same compiled code on every path (:mod:`cml_edge.grid.exploration`); the learner is a
+plug-in routed by type (:mod:`cml_edge.core.step`), which makes the three paths:
 
 - ``reference``: the loop's plain-Python ``py_func`` with the reference learner (the
-  arrays' Python methods, :mod:`cml_edge.core.learning`) and the reference explorer
-  (scipy's cKDTree for the novelty of Eq. 4);
-- ``direct``: the loop compiled with the seam learner and the compiled explorer; the
-  same operations, bit-identical to the reference, and what device arrays emulate
-  operation by operation;
+  arrays' Python methods, :mod:`cml_edge.core.learning`);
+- ``direct``: the loop compiled with the seam learner; the same operations,
+  bit-identical to the reference, and what device arrays emulate operation by operation;
 - ``factored``: the loop compiled with :class:`FactoredLearner`, the exact shortcut for
   float64 arrays under the per-walk schedule.
 
@@ -49,12 +47,13 @@ from cml_edge.grid.arena import MOVES, GridArena, observe
 from cml_edge.grid.exploration import (
     N_EXPL_FRACTION,
     GridExplorer,
-    ReferenceExplorer,
-    explore,
+    choose_action,
     explore_code,
-    start_walk,
+    nth_free_cell,
+    threshold,
     visit,
 )
+from cml_edge.rng import randint
 
 PATHS = ("reference", "direct", "factored")
 
@@ -93,8 +92,7 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
             getattr(a, "supports_factored", False) for a in cml.arrays)):
         raise InputError("the factored path needs float64 arrays and the per-walk schedule")
     learner = make_learner(cml, path, defer, arena.size)
-    explorer = (ReferenceExplorer(arena, config, seed) if path == "reference"
-                else GridExplorer.of(arena, config, seed))
+    explorer = GridExplorer.of(arena, config, seed)
     loop = train_loop.py_func if path == "reference" else train_loop
     c = cml.config
     errors = np.zeros(config.walks)
@@ -119,15 +117,23 @@ def make_learner(cml: CML, path: str, defer: bool, size: int):
 
 @njit(cache=True)
 def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
-    """Walks w0..w1-1: the training of the module docstring, for any learner and explorer."""
+    """Walks w0..w1-1: the training of the module docstring, for any learner."""
+    # the explorer's arrays, unpacked once: reading them from the tuple at every step
+    # would cost their reference counts at every step
+    free, masks, visited, n_visited, keys = (explorer.free, explorer.masks, explorer.visited,
+                                             explorer.n_visited, explorer.keys)
+    novelty, best = explorer.novelty, explorer.best
     o_t = np.zeros(2)  # a cell's observation (x, y)
     o_1 = np.zeros(2)
     for w in range(w0, w1):
-        x, y = start_walk(explorer, w)
+        x, y = nth_free_cell(free, randint(keys[0], w, explorer.n_free))
+        visit(visited, n_visited, x, y)
+        t_expl = threshold(w, explorer.n_expl)
         begin_walk(learner)
         total = 0.0
         for t in range(steps):
-            a = explore(explorer, x, y, w * steps + t)
+            a = choose_action(explorer.code, masks, visited, n_visited[0], x, y, t_expl, keys[1],
+                              w * steps + t, novelty, best)
             nx = x + MOVES[a, 0]
             ny = y + MOVES[a, 1]
             observe(x, y, origin, scale, o_t)
@@ -135,7 +141,7 @@ def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
             total += learn(learner, o_t, o_1, a)
             x = nx
             y = ny
-            visit(explorer, x, y)
+            visit(visited, n_visited, x, y)
         total += end_walk(learner)
         errors[w] = total / steps
 
