@@ -143,13 +143,13 @@ def observe_at(frame, ref, x, y, th, out):
             out[3] = frame.hscale * math.sin(th)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def observe(frame, ref, pose, out):
     """The observation of ``pose`` read in the frame of ``ref`` (module docstring)."""
     observe_at(frame, ref, pose[0], pose[1], pose[2], out)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def observe_goal(frame, ref, gx, gy, out):
     """o*: the goal (gx, gy) with the heading of ``goal_heading``, read from ``ref``."""
     th = ref[2]

@@ -101,7 +101,8 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
     n_i = 2 if frame.mode == XY else 4
     n_a = N_ROBOT_ACTIONS
     prepare(scorer, normalize, False)
-    keep = res.trails.shape[1] > 0
+    final, steps, reached, lengths, poses, actions, trails, trail_len = res
+    keep = trails.shape[1] > 0
     u = np.zeros(n_a)
     score = np.zeros(n_a)
     pose = np.zeros(3)
@@ -114,9 +115,9 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
         sim_reset(sim, starts[trial], pose)
         gx = goals[trial, 0]
         gy = goals[trial, 1]
-        res.poses[trial, 0] = pose
+        poses[trial, 0] = pose
         if keep:
-            res.trails[trial, 0] = pose
+            trails[trial, 0] = pose
         kept = 1
         taken = 0
         length = 0.0
@@ -142,17 +143,17 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
             length += polyline_length(sub[: last + 1])
             if keep:
                 for i in range(1, last + 1):
-                    res.trails[trial, kept] = sub[i]
+                    trails[trial, kept] = sub[i]
                     kept += 1
             pose[:] = new
-            res.actions[trial, taken] = a
+            actions[trial, taken] = a
             taken += 1
-            res.poses[trial, taken] = pose
-        res.final[trial] = pose
-        res.steps[trial] = taken
-        res.reached[trial] = math.hypot(pose[0] - gx, pose[1] - gy) <= radius
-        res.length[trial] = length
-        res.trail_len[trial] = kept
+            poses[trial, taken] = pose
+        final[trial] = pose
+        steps[trial] = taken
+        reached[trial] = math.hypot(pose[0] - gx, pose[1] - gy) <= radius
+        lengths[trial] = length
+        trail_len[trial] = kept
 
 
 def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goals,
