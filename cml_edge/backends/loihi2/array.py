@@ -34,6 +34,9 @@ from cml_edge.backends.base import SynapticArray
 from cml_edge.backends.fields import matrix_value
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2.config import (
+    DRAWS,
+    PAYLOAD_SCALES,
+    TERMS,
     Loihi2Config,
     Loihi2Params,
     check_scale,
@@ -147,11 +150,8 @@ class Loihi2Array(SynapticArray):
         return {"num_message_bits": p.num_message_bits, "num_weight_bits": p.nb,
                 "weight_exp": p.exp, "scale_exp": p.scale_exp,
                 "sign_mode": SIGN_MODES[p.sign_mode], "t_epoch": p.t_epoch,
-                "draws": Loihi2Config.__dataclass_fields__["draws"].metadata["choices"][
-                    p.draws],
-                "payload_scale": Loihi2Config.__dataclass_fields__["payload_scale"]
-                .metadata["choices"][p.payload_scale],
-                "strict": bool(p.strict)}
+                "draws": DRAWS[p.draws], "payload_scale": PAYLOAD_SCALES[p.payload_scale],
+                "terms": TERMS[p.terms], "strict": bool(p.strict)}
 
     @property
     def config(self) -> Loihi2Config:

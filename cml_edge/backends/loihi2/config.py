@@ -30,6 +30,7 @@ MAX_MESSAGE_BITS = 24
 MAX_T_EPOCH = 63  # Lava: W_EPOCH_TIME = 6 (tx, ty are 6-bit)
 DRAWS = ("shared", "independent")
 PAYLOAD_SCALES = ("safe", "full")
+TERMS = ("engine", "exact")
 U_BITS = 24  # the neuron's state u (PyLifModelBitAcc: 24 bits)
 ACT_SHIFT = 6  # PyLifModelBitAcc: a_in << 6 into u
 SCALE_LIMIT = 1000  # |scale_exp| beyond this is no float64 scale
@@ -100,6 +101,13 @@ class Loihi2Config:
     < 2^23), or ``full``, the finest at which the payloads fit, so that a read may overflow
     the 24-bit input (it wraps as Lava's ``PyLifModelBitAcc`` wraps u, counted). Default
     safe."""
+    terms: str = option("engine", choices=TERMS)
+    """How an update's product terms are formed: ``engine``, as Lava's learning engine forms
+    them (7-bit traces, the 4-bit rate mantissa, the product shifted right by 3 with a
+    floor, the rule's exponent at least -7), or ``exact``, NOT the chip: each term
+    lr post_i pre_j computed in float64 and stochastically rounded to the accumulator's
+    7 fraction bits (one draw per term), the rest as the chip. ``exact`` measures what the
+    engine's term formation costs the CML. Default engine."""
     strict: bool = option(False, flag="--strict-saturation",
                           help="raise on any saturation instead of clipping and counting")
     """Raise on any overflow (a wrapped neuron input, a saturated learning accumulator or
@@ -182,6 +190,6 @@ def check_scale(scale_exp: int, what: str) -> int:
     return scale_exp
 
 
-__all__ = ["DRAWS", "MAX_MESSAGE_BITS", "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP",
+__all__ = ["DRAWS", "TERMS", "MAX_MESSAGE_BITS", "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP",
            "PAYLOAD_SCALES", "PRESETS", "Loihi2Config", "Loihi2Params", "check_scale",
            "loihi2_params", "make_config", "payload_l1_max"]

@@ -55,6 +55,10 @@ Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
    one draw per synapse, at counter base + i cols + j), then clipped by ``clip_weights``
    (mixed [-256, 255], counted ``weight_saturations``). The accumulator is then w << 7.
 
+``terms`` ``exact`` (not the chip; for measuring what step 2 costs): each term is
+lr post_i pre_j in accumulator units, computed in float64 and rounded stochastically
+(one draw per term from the array's stream), then clipped and added as above.
+
 An epoch ends at ``commit`` (the per-walk schedule: one epoch per walk) and, for updates
 not deferred, every ``t_epoch`` updates (1: every step). Within an epoch, each update's
 product terms are formed at the engine's precision and summed in the accumulator; Lava's
@@ -114,6 +118,7 @@ ACC_BITS = 16  # W_ACCUMULATOR_S
 NARROW = 16  # matrices with at most this many columns are read column by column
 SHARED = 0  # index of "shared" in config.DRAWS
 SAFE = 0  # index of "safe" in config.PAYLOAD_SCALES
+EXACT = 1  # index of "exact" in config.TERMS
 MIXED, EXCITATORY, INHIBITORY = 0, 1, 2  # indices in lava.SIGN_MODES
 
 
@@ -483,6 +488,56 @@ def _add_terms(acc, m, X, cols, Y, rows, k, tally):
 
 
 @njit(cache=True)
+def _add_exact(state, post, pre, lr, tally):
+    """The ``exact`` terms (not the chip): lr post_i pre_j in accumulator units, floor plus
+    one uniform draw per term (up with probability the fraction), clipped and added as
+    the engine's; tally[:3] as :func:`_add_terms`, tally[3] the draws."""
+    p = state.params
+    acc = state.acc
+    rows, cols = acc.shape
+    scale = lr * math.ldexp(1.0, p.scale_exp - p.exp + FRAC_BITS)
+    key = state.rng[0]
+    ctr = np.int64(state.rng[1])
+    ctr0 = ctr
+    terms = 0
+    psat = 0
+    asat = 0
+    for i in range(rows):
+        if post[i] == 0.0:
+            continue
+        for j in range(cols):
+            if pre[j] == 0.0:
+                continue
+            terms += 1
+            v = scale * post[i] * pre[j]
+            if not abs(v) < 1e18:
+                t = np.int64(ACC_MAX) if v > 0 else np.int64(ACC_MIN)
+                psat += 1
+            else:
+                f = math.floor(v)
+                t = np.int64(f)
+                if v != f:
+                    if uniform(key, ctr) < v - f:
+                        t += 1
+                    ctr += 1
+                if t > ACC_MAX:
+                    t = np.int64(ACC_MAX)
+                    psat += 1
+                elif t < ACC_MIN:
+                    t = np.int64(ACC_MIN)
+                    psat += 1
+            if t != 0:
+                a, s2 = accumulate(np.int64(acc[i, j]), t)
+                asat += s2
+                acc[i, j] = a
+    state.rng[1] = np.uint64(ctr)
+    tally[0] = terms
+    tally[1] = psat
+    tally[2] = asat
+    return ctr - ctr0
+
+
+@njit(cache=True)
 def loihi2_outer_update(state, post, pre, lr, defer):
     w = state.w
     p = state.params
@@ -499,7 +554,11 @@ def loihi2_outer_update(state, post, pre, lr, defer):
     tally[0] = 0
     tally[1] = 0
     tally[2] = 0
-    if m != 0 and k < 0:
+    if p.terms == EXACT:
+        if lr != 0.0:
+            c[RNG_DRAWS] += _add_exact(state, post, pre, lr, tally)
+        m = 0
+    elif m != 0 and k < 0:
         cx, cy = coarsen(-k, X, cols, Y, rows)
         if cx > 0:
             quantize_at(pre, cols, e_x + cx, X)
@@ -508,6 +567,7 @@ def loihi2_outer_update(state, post, pre, lr, defer):
         k = 0
     if m != 0:
         _add_terms(state.acc, m, X, cols, Y, rows, k, tally)
+    # tally[:3]: terms formed, product saturations, accumulator saturations
     terms = tally[0]
     c[UPDATE_MACS] += terms
     c[PRODUCT_SATURATIONS] += tally[1]
