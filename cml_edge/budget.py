@@ -73,6 +73,9 @@ TECHNOLOGIES: dict[str, CostModel] = {
     "fp32": CostModel("fp32_mac"),
     "int8": CostModel("int8_mac"),
     "int16": CostModel("int32_mac"),
+    # Loihi 2: no per-operation energy of its synaptic ops and learning engine is public in
+    # this form; the int8 MAC (8-bit weights) and SRAM byte are the closest sourced figures
+    "loihi2": CostModel("int8_mac"),
     # analog MACs (the figure includes DAC/ADC conversions) and one write pulse per device
     # pulse; no SRAM traffic
     "analog": CostModel("analog_mac", ("analog_macs",), None, (), "write_pulse",

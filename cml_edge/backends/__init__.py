@@ -27,7 +27,7 @@ from cml_edge.backends.device import Backend, DeviceSpec
 from cml_edge.backends.dispatch import register, unregister
 from cml_edge.errors import InputError
 
-DEVICE_PACKAGES = ("floating", "fixed", "crossbar")  # one entry per device folder
+DEVICE_PACKAGES = ("floating", "fixed", "crossbar", "loihi2")  # one entry per device folder
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,21 @@
+"""The ``loihi2`` device: Loihi 2 as Intel's Lava models it bit for bit, and export to Lava."""
+
+from cml_edge.backends.device import Backend, DeviceSpec
+from cml_edge.backends.dispatch import Kernels
+from cml_edge.backends.loihi2 import kernels
+from cml_edge.backends.loihi2.array import Loihi2Array, Loihi2State
+from cml_edge.backends.loihi2.config import PRESETS, Loihi2Config
+
+DEVICE = DeviceSpec(
+    array_class=Loihi2Array,
+    kernels=Kernels(kernels.loihi2_matvec, kernels.loihi2_rmatvec, kernels.loihi2_outer_update,
+                    kernels.loihi2_commit, kernels.loihi2_sigmoid),
+    config_class=Loihi2Config,
+    backends={"loihi2": Backend("Loihi 2 as Lava's bit-accurate models: 8-bit weights, "
+                                "graded spikes, 24-bit neurons, the learning engine")},
+    presets=PRESETS,
+    technology="loihi2",
+    report=(("loihi2", "loihi2", {}),),
+)
+
+__all__ = ["DEVICE", "Loihi2Array", "Loihi2Config", "Loihi2State"]

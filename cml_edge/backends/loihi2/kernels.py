@@ -1,0 +1,616 @@
+"""Kernels of the ``loihi2`` array: Loihi 2's dendrite and learning engine as Lava models them.
+
+One source of truth: :class:`cml_edge.backends.loihi2.array.Loihi2Array` calls these
+kernels from Python and the compiled training and planning loops call them through the
+seam. Each step below names the Lava file and function it follows (lava-nc/lava at
+b6822fbc); where Lava is silent, the choice is ours and says so. Weights are the
+integers ``state.w`` (9-bit signed, as Lava's learning ``Dense`` holds them); a weight w
+stands for w 2^(E - S) (E = ``params.exp``, the weight exponent; S = ``params.scale_exp``).
+
+Read, W x (and W^T y the same way on the same weights: the Dense of W^T):
+
+1. x becomes graded-spike payloads s = rint(x 2^-e) (ties to even), signed integers
+   with |s| <= 2^(num_message_bits - 1) - 1, one power-of-two scale e per vector
+   (the sender's format; Lava leaves it to the network): the finest at which the
+   payloads fit and, with ``payload_scale`` ``safe``, the read cannot overflow the
+   neuron's 24-bit input for any 9-bit weights (:func:`encode`);
+2. the dendritic sum over the nonzero payloads (event-driven), exact in int64, then
+   shifted by the weight exponent as ``AbstractPyDenseModelBitAcc.run_spk`` does
+   (``>> -E``, a floor, or ``<< E``): the Dense's a_out;
+3. the neuron's input: a_out << 6 into the 24-bit state u, as ``PyLifModelBitAcc``
+   adds its input to u (with ``du`` = 4095 the current decays fully each step, so u is
+   exactly the input), wrapped into (-2^23, 2^23] when it overflows, counted
+   (``neuron_wraps``), or raising in strict mode (:func:`wrap24`). Lava's model applies
+   one 2^24 correction; we wrap modulo 2^24, which is the same wherever that single
+   correction lands in 24 bits. The chip's dendritic accumulator width is not public:
+   the 24-bit u is the one bounded register Lava's bit-accurate models define;
+4. the output u x 2^(e - S - 6), exactly.
+
+Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
+``LearningConnectionModelBitApproximate``; ``learning_rule_applier.py``,
+``LearningRuleApplierBitApprox``) forms a product term and writes back:
+
+1. lr becomes the rule's literal m 2^e_lr with a 4-bit signed mantissa |m| in 4..7 (the
+   most precise of Lava's [-8, 7]; :func:`lr_literal`); post and pre become 7-bit
+   traces (Lava ``W_TRACE`` = 7) in sign-magnitude: |Y_i| = |rint(post_i 2^-e_y)| <= 127
+   and |X_j| <= 127, one power-of-two scale per vector; the sign goes into the rule
+   term's mantissa (a rule of four terms, x+ y+, x- y-, -x+ y-, -x- y+, of which each
+   synapse has one nonzero);
+2. each synapse's product term as ``LearningRuleApplierBitApprox.apply`` forms it:
+   P = (m X_j Y_i) >> 3 (two 7-bit factors and the 4-bit mantissa are 18 bits, shifted
+   by 18 - 15; an arithmetic shift: negative terms floor away from zero, as on the
+   chip), then P << k with k = e_lr + e_x + e_y + S - E + 10 the rule's stored exponent
+   (e + 7 in 0..15), clipped to [-32769, 32767], and added to the synapse's 16-bit
+   learning accumulator with 7 fraction bits, clipped again (both clips counted,
+   ``product_saturations`` / ``acc_saturations``). When k would be negative, the engine
+   cannot shift the term that far: the traces are formed coarser instead, first by the
+   low bits every trace of a vector has zero (lossless; a one-hot vector has 6), then a
+   bit at a time from the factor with the larger trace (:func:`coarsen`). A term below 8
+   then floors to 0 (positive) or -1 (negative): the engine's bias;
+3. the write-back at the end of a learning epoch (:func:`end_epoch`), as
+   ``_apply_learning_rules``: the accumulator (which holds w << 7 plus the epoch's terms)
+   is saturated by sign mode (excitatory >= 0, inhibitory <= 0), stochastically rounded to
+   the weight: up when r 2^7 < its 7 fraction bits, r one uniform draw shared by every
+   synapse of the array in the epoch (Lava's ``ConnVarRandom``; ``draws`` ``independent``:
+   one draw per synapse, at counter base + i cols + j), then clipped by ``clip_weights``
+   (mixed [-256, 255], counted ``weight_saturations``). The accumulator is then w << 7.
+
+``terms`` ``exact`` (not the chip; for measuring what step 2 costs): each term is
+lr post_i pre_j in accumulator units, computed in float64 and rounded stochastically
+(one draw per term from the array's stream), then clipped and added as above.
+
+An epoch ends at ``commit`` (the per-walk schedule: one epoch per walk) and, for updates
+not deferred, every ``t_epoch`` updates (1: every step). Within an epoch, each update's
+product terms are formed at the engine's precision and summed in the accumulator; Lava's
+engine forms its terms once per epoch from traces, and no single term expresses the
+CML's sum of a walk's outer products, so this is the emulation of an engine that keeps
+its accumulator across the epoch.
+
+Randomness: the array's counter-based stream (``uniform(rng[0], rng[1])``), advanced by
+one per shared draw or by rows x cols per epoch with independent draws.
+
+Counters (``Loihi2Array.counter_names``): ``macs`` / ``weight_reads`` the synaptic
+operations of reads (nonzero payloads x fan-out); ``neuron_wraps``; ``update_macs``
+the product terms formed; ``epochs``; ``weight_writes`` and ``cells_changed``;
+``sign_clips`` (accumulators saturated by sign mode); ``rng_draws``; bits and bytes
+moved (weights at 9 bits, the accumulator at 16).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from cml_edge.backends.quant import (
+    SIGMOID_IN_FRAC_BITS,
+    SIGMOID_INDEX_BITS,
+    SIGMOID_LUT,
+    SIGMOID_OUT_BITS,
+    SaturationError,
+    exponent_for,
+    quantize_vector,
+)
+from cml_edge.errors import InputError
+from cml_edge.rng import uniform
+
+# counter indices (names in Loihi2Array.counter_names)
+MATVECS, RMATVECS, MACS, WEIGHT_READS, NEURON_WRAPS, OUTER_UPDATES = 0, 1, 2, 3, 4, 5
+UPDATE_MACS, PRODUCT_SATURATIONS, ACC_SATURATIONS, COMMITS, EPOCHS = 6, 7, 8, 9, 10
+WEIGHT_WRITES, CELLS_CHANGED, WEIGHT_SATURATIONS, SIGN_CLIPS, PROGRAM_CLIPS = 11, 12, 13, 14, 15
+RNG_DRAWS, BITS_READ, BITS_WRITTEN, BYTES_READ, BYTES_WRITTEN = 16, 17, 18, 19, 20
+N_COUNTERS = 21
+
+# the chip's numbers, as Lava's constants and models state them
+ACC_MAX = 32767  # learning accumulator: clip(., -(2^15) - 1, 2^15 - 1) (Lava's bounds)
+ACC_MIN = -32769
+FRAC_BITS = 7  # W_ACCUMULATOR_S - W_SYN_VAR_S = 16 - 9
+TRACE_MAX = 127  # 7-bit traces
+PRODUCT_SHIFT = 3  # 7 + 7 + 4 (W_S_MANT) - 15
+MAX_TERM_SHIFT = 16  # a term shifted by >= 16 saturates the accumulator whatever it is
+LR_MANT_BITS = 3  # |m| < 8: 4-bit signed mantissa
+U_HALF = np.int64(1) << np.int64(23)  # the neuron's 24-bit u: (-2^23, 2^23]
+U_MASK = (np.int64(1) << np.int64(24)) - np.int64(1)
+ACT_SHIFT = 6  # PyLifModelBitAcc act_shift: a_in << 6
+WEIGHT_BITS = 9  # W_WEIGHTS_S: a learned weight's storage bits
+ACC_BITS = 16  # W_ACCUMULATOR_S
+NARROW = 16  # matrices with at most this many columns are read column by column
+SHARED = 0  # index of "shared" in config.DRAWS
+SAFE = 0  # index of "safe" in config.PAYLOAD_SCALES
+EXACT = 1  # index of "exact" in config.TERMS
+MIXED, EXCITATORY, INHIBITORY = 0, 1, 2  # indices in lava.SIGN_MODES
+
+
+# the neuron's 24-bit input ------------------------------------------------------------
+@njit(cache=True)
+def wrap24(d):
+    """(u, wrapped): d into the 24-bit u's range (-2^23, 2^23] modulo 2^24, as
+    ``PyLifModelBitAcc`` wraps u (it keeps +2^23 and wraps -2^23 to +2^23); wrapped is 1
+    when u != d."""
+    if -U_HALF < d <= U_HALF:
+        return d, 0
+    return ((d + U_HALF - 1) & U_MASK) - U_HALF + 1, 1
+
+
+@njit(cache=True)
+def neuron_input(total, exp):
+    """(u, wrapped): the dendritic sum ``total`` shifted by the weight exponent (Dense:
+    a floor right shift by -exp, or left by exp), then << 6 into the 24-bit u."""
+    a = total >> np.int64(-exp) if exp < 0 else total << np.int64(exp)
+    return wrap24(a << np.int64(ACT_SHIFT))
+
+
+# inputs as graded-spike payloads ---------------------------------------------------------
+@njit(cache=True)
+def quantize_at(x, n, e, out):
+    """out[:n] = rint(x 2^-e) (ties to even); returns the L1 norm of out[:n]."""
+    l1 = np.int64(0)
+    if -e > 1000:
+        for i in range(n):
+            out[i] = np.int64(np.rint(math.ldexp(x[i], -e)))
+            l1 += abs(out[i])
+        return l1
+    scale = math.ldexp(1.0, -e)
+    for i in range(n):
+        out[i] = np.int64(np.rint(x[i] * scale))
+        l1 += abs(out[i])
+    return l1
+
+
+@njit(cache=True)
+def encode(x, n, qmax, l1_max, safe, out):
+    """Payloads out[:n] of x[:n] and their scale e (x ~ out 2^e).
+
+    e is the finest power of two at which every |payload| <= qmax (nearest, ties to even;
+    an all-zero vector gets e = 0) and, if ``safe``, the payloads' L1 norm is <= l1_max.
+    """
+    e = quantize_vector(x, n, qmax, out)
+    if not safe:
+        return e
+    l1 = np.int64(0)
+    total = 0.0
+    for i in range(n):
+        l1 += abs(out[i])
+        total += abs(x[i])
+    if l1 <= l1_max:
+        return e
+    e1 = exponent_for(total, l1_max)  # the finest e with sum |x| 2^-e <= l1_max
+    if e1 > e:
+        e = e1
+    l1 = quantize_at(x, n, e, out)
+    while l1 > l1_max:  # rounding up may pass the bound: one bit coarser
+        e += 1
+        l1 = quantize_at(x, n, e, out)
+    return e
+
+
+@njit(cache=True)
+def _emit(state, sums, n, e, out):
+    """out[:n] = the neuron inputs of the dendritic sums, as floats; returns the wraps."""
+    p = state.params
+    e_out = e - p.scale_exp - ACT_SHIFT
+    wraps = 0
+    big = not (-1000 < e_out < 1000)
+    scale = math.ldexp(1.0, e_out) if not big else 0.0
+    for i in range(n):
+        u, w = neuron_input(sums[i], p.exp)
+        wraps += w
+        out[i] = float(u) * scale if not big else math.ldexp(float(u), e_out)
+    return wraps
+
+
+@njit(cache=True, inline="always")
+def _count_read(state, counter, nnz, fanout, wraps):
+    c = state.counters
+    done = nnz * fanout
+    c[counter] += 1
+    c[MACS] += done
+    c[WEIGHT_READS] += done
+    c[NEURON_WRAPS] += wraps
+    c[BITS_READ] += done * WEIGHT_BITS
+    c[BYTES_READ] = (c[BITS_READ] + 7) >> 3
+    if wraps and state.params.strict:
+        raise SaturationError("loihi2: a read overflowed the neuron's 24-bit input "
+                              "(strict mode)")
+
+
+@njit(cache=True, inline="always")
+def loihi2_matvec(state, x, out):
+    w = state.w
+    p = state.params
+    s = state.xq
+    sums = state.sums
+    rows, cols = w.shape
+    e = encode(x, cols, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
+    nnz = 0
+    if cols <= NARROW:
+        for i in range(rows):
+            sums[i] = 0
+        for j in range(cols):
+            v = s[j]
+            if v == 0:
+                continue
+            nnz += 1
+            for i in range(rows):
+                sums[i] += w[i, j] * v
+    else:
+        for j in range(cols):
+            if s[j] != 0:
+                nnz += 1
+        for i in range(rows):
+            total = np.int64(0)
+            for j in range(cols):
+                total += w[i, j] * s[j]
+            sums[i] = total
+    wraps = _emit(state, sums, rows, e, out)
+    _count_read(state, MATVECS, nnz, rows, wraps)
+
+
+@njit(cache=True, inline="always")
+def loihi2_rmatvec(state, y, out):
+    w = state.w
+    p = state.params
+    s = state.xq
+    sums = state.sums
+    rows, cols = w.shape
+    e = encode(y, rows, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
+    for j in range(cols):
+        sums[j] = 0
+    nnz = 0
+    for i in range(rows):
+        v = s[i]
+        if v == 0:
+            continue
+        nnz += 1
+        for j in range(cols):
+            sums[j] += w[i, j] * v
+    wraps = _emit(state, sums, cols, e, out)
+    _count_read(state, RMATVECS, nnz, cols, wraps)
+
+
+# the learning engine ----------------------------------------------------------------------
+@njit(cache=True)
+def lr_literal(lr):
+    """lr as the rule literal (m, e): lr ~ m 2^e with |m| in 4..7 (nearest, ties to even;
+    a 4-bit signed mantissa), m carrying lr's sign; (0, 0) for lr = 0."""
+    if not abs(lr) <= 1.7976931348623157e308:
+        raise InputError("non-finite learning rate")
+    if lr == 0.0:
+        return np.int64(0), 0
+    f, ex = math.frexp(abs(lr))  # f in [0.5, 1)
+    m = np.rint(math.ldexp(f, LR_MANT_BITS))  # 4..8
+    e = ex - LR_MANT_BITS
+    if m >= float(1 << LR_MANT_BITS):
+        m = m / 2.0
+        e += 1
+    mi = np.int64(m)
+    return (mi if lr > 0 else -mi), e
+
+
+@njit(cache=True)
+def engine_term(m, x, y, k):
+    """(term, saturated): one product term as ``LearningRuleApplierBitApprox`` forms it
+    for the rule ``m 2^(k - 7) x1 y1`` (k the stored exponent e + 7): (m x y) >> 3, << k
+    (k >= 16 saturates whatever the product), clipped to [-32769, 32767]."""
+    v = (m * x * y) >> np.int64(PRODUCT_SHIFT)
+    if v == 0:
+        return np.int64(0), 0
+    if k >= MAX_TERM_SHIFT:
+        return (np.int64(ACC_MAX), 1) if v > 0 else (np.int64(ACC_MIN), 1)
+    v = v << np.int64(k)
+    if v > ACC_MAX:
+        return np.int64(ACC_MAX), 1
+    if v < ACC_MIN:
+        return np.int64(ACC_MIN), 1
+    return v, 0
+
+
+@njit(cache=True)
+def accumulate(a, term):
+    """(a + term clipped to [-32769, 32767], saturated): Lava's clip of the result."""
+    r = a + term
+    if r > ACC_MAX:
+        return np.int64(ACC_MAX), 1
+    if r < ACC_MIN:
+        return np.int64(ACC_MIN), 1
+    return r, 0
+
+
+@njit(cache=True)
+def write_back(a, r, sign, w_min, w_max):
+    """(w, sign_clipped, saturated): the accumulator a (7 fraction bits) written back
+    to a weight as ``_apply_learning_rules`` does: saturated by sign mode (excitatory
+    max(0, a), inhibitory min(0, a)), stochastically rounded with the uniform r (up when
+    r 2^7 < a's fraction bits: Lava's r < frac), clipped to [w_min, w_max]."""
+    clipped = 0
+    if (sign == EXCITATORY and a < 0) or (sign == INHIBITORY and a > 0):
+        a = np.int64(0)
+        clipped = 1
+    q = a >> np.int64(FRAC_BITS)
+    f = a & np.int64((1 << FRAC_BITS) - 1)
+    if f != 0 and r * float(1 << FRAC_BITS) < float(f):
+        q += 1
+    if q > w_max:
+        return np.int64(w_max), clipped, 1
+    if q < w_min:
+        return np.int64(w_min), clipped, 1
+    return q, clipped, 0
+
+
+@njit(cache=True)
+def _trailing_zeros(v, n):
+    """The number of low zero bits every nonzero v[:n] has (62 if all are zero)."""
+    tz = 62
+    for i in range(n):
+        a = abs(v[i])
+        if a == 0:
+            continue
+        z = 0
+        while (a & 1) == 0:
+            a >>= 1
+            z += 1
+        if z < tz:
+            tz = z
+    return tz
+
+
+@njit(cache=True)
+def _max_abs(v, n):
+    top = np.int64(0)
+    for i in range(n):
+        a = abs(v[i])
+        if a > top:
+            top = a
+    return top
+
+
+@njit(cache=True)
+def coarsen(deficit, X, nx, Y, ny):
+    """(cx, cy): how many bits coarser the pre (X) and post (Y) traces are formed so
+    that the rule's exponent rises by ``deficit``: first the low bits all of a vector's
+    traces have zero (pre first; lossless), then one bit at a time from the factor
+    whose largest trace is larger (post on a tie)."""
+    tzx = _trailing_zeros(X, nx)
+    tzy = _trailing_zeros(Y, ny)
+    cx = min(deficit, tzx)
+    deficit -= cx
+    cy = min(deficit, tzy)
+    deficit -= cy
+    mx = _max_abs(X, nx) >> np.int64(cx)
+    my = _max_abs(Y, ny) >> np.int64(cy)
+    while deficit > 0 and (mx > 0 or my > 0):
+        if my >= mx:
+            cy += 1
+            my >>= 1
+        else:
+            cx += 1
+            mx >>= 1
+        deficit -= 1
+    if deficit > 0:  # both traces are gone: nothing to learn
+        cx += deficit
+    return cx, cy
+
+
+@njit(cache=True)
+def end_epoch(state):
+    """The write-back of a learning epoch (module docstring, step 3); the accumulator
+    then holds w << 7 again."""
+    w = state.w
+    acc = state.acc
+    p = state.params
+    rows, cols = w.shape
+    key = state.rng[0]
+    ctr = np.int64(state.rng[1])
+    shared = p.draws == SHARED
+    r = 0.0
+    if shared:
+        r = uniform(key, ctr)
+        draws = 1
+    else:
+        draws = rows * cols
+    changed = 0
+    sats = 0
+    signs = 0
+    for i in range(rows):
+        for j in range(cols):
+            a = np.int64(acc[i, j])
+            if not shared and (a & np.int64((1 << FRAC_BITS) - 1)) != 0:
+                r = uniform(key, ctr + i * cols + j)
+            q, sc, sat = write_back(a, r, p.sign_mode, p.w_min, p.w_max)
+            signs += sc
+            sats += sat
+            if q != w[i, j]:
+                changed += 1
+                w[i, j] = q
+            acc[i, j] = q << np.int64(FRAC_BITS)
+    state.rng[1] = np.uint64(ctr + draws)
+    state.epoch[0] = 0
+    c = state.counters
+    n = rows * cols
+    c[EPOCHS] += 1
+    c[RNG_DRAWS] += draws
+    c[WEIGHT_WRITES] += changed
+    c[CELLS_CHANGED] += changed
+    c[WEIGHT_SATURATIONS] += sats
+    c[SIGN_CLIPS] += signs
+    c[BITS_READ] += n * ACC_BITS
+    c[BITS_WRITTEN] += changed * WEIGHT_BITS + n * ACC_BITS
+    c[BYTES_READ] = (c[BITS_READ] + 7) >> 3
+    c[BYTES_WRITTEN] = (c[BITS_WRITTEN] + 7) >> 3
+    if (sats or signs) and p.strict:
+        raise SaturationError("loihi2: a weight was clipped at write-back (strict mode)")
+
+
+@njit(cache=True)
+def _add_terms(acc, m, X, cols, Y, rows, k, tally):
+    """acc += the product terms of the nonzero traces; tally[:3] = terms formed,
+    product saturations, accumulator saturations. Narrow matrices (a one-hot pre) are
+    walked column by column."""
+    terms = 0
+    psat = 0
+    asat = 0
+    if cols <= NARROW:
+        for j in range(cols):
+            x = X[j]
+            if x == 0:
+                continue
+            for i in range(rows):
+                y = Y[i]
+                if y == 0:
+                    continue
+                terms += 1
+                t, s1 = engine_term(m, x, y, k)
+                psat += s1
+                if t != 0:
+                    a, s2 = accumulate(np.int64(acc[i, j]), t)
+                    asat += s2
+                    acc[i, j] = a
+    else:
+        for i in range(rows):
+            y = Y[i]
+            if y == 0:
+                continue
+            for j in range(cols):
+                x = X[j]
+                if x == 0:
+                    continue
+                terms += 1
+                t, s1 = engine_term(m, x, y, k)
+                psat += s1
+                if t != 0:
+                    a, s2 = accumulate(np.int64(acc[i, j]), t)
+                    asat += s2
+                    acc[i, j] = a
+    tally[0] = terms
+    tally[1] = psat
+    tally[2] = asat
+
+
+@njit(cache=True)
+def _add_exact(state, post, pre, lr, tally):
+    """The ``exact`` terms (not the chip): lr post_i pre_j in accumulator units, floor plus
+    one uniform draw per term (up with probability the fraction), clipped and added as
+    the engine's; tally[:3] as :func:`_add_terms`, tally[3] the draws."""
+    p = state.params
+    acc = state.acc
+    rows, cols = acc.shape
+    scale = lr * math.ldexp(1.0, p.scale_exp - p.exp + FRAC_BITS)
+    key = state.rng[0]
+    ctr = np.int64(state.rng[1])
+    ctr0 = ctr
+    terms = 0
+    psat = 0
+    asat = 0
+    for i in range(rows):
+        if post[i] == 0.0:
+            continue
+        for j in range(cols):
+            if pre[j] == 0.0:
+                continue
+            terms += 1
+            v = scale * post[i] * pre[j]
+            if not abs(v) < 1e18:
+                t = np.int64(ACC_MAX) if v > 0 else np.int64(ACC_MIN)
+                psat += 1
+            else:
+                f = math.floor(v)
+                t = np.int64(f)
+                if v != f:
+                    if uniform(key, ctr) < v - f:
+                        t += 1
+                    ctr += 1
+                if t > ACC_MAX:
+                    t = np.int64(ACC_MAX)
+                    psat += 1
+                elif t < ACC_MIN:
+                    t = np.int64(ACC_MIN)
+                    psat += 1
+            if t != 0:
+                a, s2 = accumulate(np.int64(acc[i, j]), t)
+                asat += s2
+                acc[i, j] = a
+    state.rng[1] = np.uint64(ctr)
+    tally[0] = terms
+    tally[1] = psat
+    tally[2] = asat
+    return ctr - ctr0
+
+
+@njit(cache=True)
+def loihi2_outer_update(state, post, pre, lr, defer):
+    w = state.w
+    p = state.params
+    rows, cols = w.shape
+    c = state.counters
+    c[OUTER_UPDATES] += 1
+    m, e_lr = lr_literal(lr)
+    Y = state.yq
+    X = state.xq
+    e_y = quantize_vector(post, rows, TRACE_MAX, Y)
+    e_x = quantize_vector(pre, cols, TRACE_MAX, X)
+    k = e_lr + e_x + e_y + p.scale_exp - p.exp + PRODUCT_SHIFT + FRAC_BITS
+    tally = state.tally
+    tally[0] = 0
+    tally[1] = 0
+    tally[2] = 0
+    if p.terms == EXACT:
+        if lr != 0.0:
+            c[RNG_DRAWS] += _add_exact(state, post, pre, lr, tally)
+        m = 0
+    elif m != 0 and k < 0:
+        cx, cy = coarsen(-k, X, cols, Y, rows)
+        if cx > 0:
+            quantize_at(pre, cols, e_x + cx, X)
+        if cy > 0:
+            quantize_at(post, rows, e_y + cy, Y)
+        k = 0
+    if m != 0:
+        _add_terms(state.acc, m, X, cols, Y, rows, k, tally)
+    # tally[:3]: terms formed, product saturations, accumulator saturations
+    terms = tally[0]
+    c[UPDATE_MACS] += terms
+    c[PRODUCT_SATURATIONS] += tally[1]
+    c[ACC_SATURATIONS] += tally[2]
+    c[BITS_READ] += terms * ACC_BITS
+    c[BITS_WRITTEN] += terms * ACC_BITS
+    c[BYTES_READ] = (c[BITS_READ] + 7) >> 3
+    c[BYTES_WRITTEN] = (c[BITS_WRITTEN] + 7) >> 3
+    if (tally[1] or tally[2]) and p.strict:
+        raise SaturationError("loihi2: the learning accumulator saturated (strict mode)")
+    if not defer:
+        state.epoch[0] += 1
+        if state.epoch[0] >= p.t_epoch:
+            end_epoch(state)
+
+
+@njit(cache=True)
+def loihi2_commit(state):
+    state.counters[COMMITS] += 1
+    end_epoch(state)
+
+
+# the affordance nonlinearity ------------------------------------------------------------
+LUT_HALF = 1 << (SIGMOID_INDEX_BITS - 1)
+
+
+@njit(cache=True, inline="always")
+def loihi2_sigmoid(state, z, out):
+    """sigmoid(z) as a programmable neuron with a 256-entry table holds it: the index is
+    z in steps of 1/16 (nearest, ties up), clipped to [-8, 8 - 1/16] (the neuron shifts
+    its 24-bit u by the read's scale to form it), the entry a 16-bit unsigned fraction
+    (``quant.SIGMOID_LUT``: 512 bytes of neuron memory), sent as an unsigned payload of
+    min(num_message_bits, 16) bits (its low bits dropped)."""
+    bits = min(state.params.num_message_bits, SIGMOID_OUT_BITS)
+    drop = SIGMOID_OUT_BITS - bits
+    unit = math.ldexp(1.0, -bits)
+    for i in range(z.shape[0]):
+        v = z[i]
+        if v != v:
+            raise InputError("non-finite input to the sigmoid lookup table")
+        t = math.floor(v * (1 << SIGMOID_IN_FRAC_BITS) + 0.5)
+        if t < -LUT_HALF:
+            t = -LUT_HALF
+        elif t > LUT_HALF - 1:
+            t = LUT_HALF - 1
+        out[i] = float(SIGMOID_LUT[int(t) + LUT_HALF] >> drop) * unit

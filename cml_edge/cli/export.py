@@ -1,0 +1,79 @@
+"""``cml-edge export MODEL.npz --format lava --out DIR``: a loihi2 model's weights for Lava.
+
+For each matrix (W_q, W_k, W_v) it writes ``NAME.npz`` (``weights``, ``mantissa``,
+``weight_exp``, ``num_weight_bits``, ``sign_mode``, ``num_message_bits``, ``scale_exp``:
+:meth:`cml_edge.backends.loihi2.array.Loihi2Array.to_lava`) and ``NAME.json`` (how to build
+the ``Dense`` process from it and how a read maps to the CML's float read;
+:func:`~cml_edge.backends.loihi2.array.lava_description`), and ``lava.json`` listing them.
+Lava is not needed here (nor installable on Python 3.11): a user who has it builds
+``Dense(weights=..., weight_exp=..., num_weight_bits=..., sign_mode=SignMode(...),
+num_message_bits=...)`` from these files. Every file is written under a temporary name and
+renamed into place.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge.errors import InputError
+from cml_edge.storage import MATRICES, atomic_write, atomic_write_text, load_model
+
+FORMATS = ("lava",)
+
+
+def add_parsers(sub) -> None:
+    """The export command."""
+    p = sub.add_parser("export", help="write a loihi2 model's weights for another tool "
+                       "(--format lava: Lava Dense parameters, .npz and JSON per matrix)")
+    p.add_argument("model", help="model file (.npz) trained with --backend loihi2")
+    p.add_argument("--format", choices=FORMATS, required=True,
+                   help="lava: the integer weights, weight_exp, num_weight_bits, sign_mode and "
+                        "num_message_bits of each Dense")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder to write into")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_export)
+
+
+def _npz_bytes(arrays: dict[str, Any]) -> bytes:
+    buf = io.BytesIO()
+    np.savez(buf, **{k: np.asarray(v) for k, v in arrays.items()})
+    return buf.getvalue()
+
+
+def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.backends.loihi2.array import Loihi2Array, lava_description
+
+    cml, _ = load_model(args.model)
+    kinds = sorted({arr.name for arr in cml.arrays})
+    if kinds != [Loihi2Array.name]:
+        raise InputError(f"{args.model!r} holds {', '.join(kinds)} arrays (backend "
+                         f"{cml.backend}); --format lava exports loihi2 models only (allowed: "
+                         "a model trained with --backend loihi2)")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {args.out!r} is a file (allowed: a folder)")
+    files, described = [], []
+    for name, arr in zip(MATRICES, cml.arrays):
+        values = arr.to_lava()
+        data = _npz_bytes(values)
+        atomic_write(out / f"{name}.npz", lambda f, data=data: f.write(data))
+        description = lava_description(arr, name)
+        atomic_write_text(out / f"{name}.json", json.dumps(description, indent=1))
+        files += [str(out / f"{name}.npz"), str(out / f"{name}.json")]
+        described.append({k: values[k] for k in ("weight_exp", "num_weight_bits", "sign_mode",
+                                                 "num_message_bits", "scale_exp",
+                                                 "lsb_truncated")} | {"matrix": name})
+    index = {"model": str(args.model), "format": "lava", "backend": cml.backend,
+             "matrices": described,
+             "note": "one Dense per matrix (NAME.json says how); planning also reads W_v^T, "
+                     "a second Dense of W_v's weights transposed"}
+    atomic_write_text(out / "lava.json", json.dumps(index, indent=1))
+    files.append(str(out / "lava.json"))
+    return {"model": str(args.model), "format": "lava", "out": str(out), "files": files,
+            "matrices": described}
