@@ -76,7 +76,7 @@ TECHNOLOGIES: dict[str, CostModel] = {
     # analog MACs (the figure includes DAC/ADC conversions) and one write pulse per device
     # pulse; no SRAM traffic
     "analog": CostModel("analog_mac", ("analog_macs",), None, (), "write_pulse",
-                        ("device_pulses",)),
+                        ("device_pulses", "refresh_pulses")),
     NOT_COSTED: CostModel(None),  # a device that declares no technology
 }
 """The cost models a device can declare (``DeviceSpec.technology``)."""

@@ -228,7 +228,8 @@ class DeviceConfig:
     ``add`` (``SoftBoundsReference`` default): s dG (factor + dw_min_std z), the same
     spread wherever the device is; ``complex`` (``ExpStep`` with dw_min_std_add/slope):
     step + dw_min_std (|step| + c2c_add (g_max - g_min) + c2c_slope |G - G0|) z. A SET
-    pulse of a ``set_only`` device never lowers G (the negative tail is cut)."""
+    pulse of a ``set_only`` device never lowers G: its step is log-normal with the same
+    mean and std (aihwkit's Gaussian lets a SET pulse lower G)."""
     c2c_add: float = 0.0
     """``complex`` c2c: constant term, fraction of the range (aihwkit dw_min_std_add
     0.042 of a 2-wide range: 0.021)."""
@@ -252,8 +253,9 @@ class DeviceConfig:
     """Scale of the accumulated 1/f read noise (aihwkit ``PCMLikeNoiseModel``
     read_noise_scale); 0 = off. When time is let pass (``elapse``, including 0 s), each
     device gets one persistent draw, on its drifted conductance G:
-    N(0, (rn1f q_s(G) G sqrt(ln((t + t0 + t_read) / (2 t_read))))^2), q_s(G) =
-    min(rn1f_q0 / (G / g_max)^rn1f_qexp, rn1f_qmax), t its age; the draw replaces the
+    N(0, (rn1f q_s(G_p) G sqrt(ln((t + t0 + t_read) / (2 t_read))))^2), q_s(G_p) =
+    min(rn1f_q0 / max((G_p / g_max)^rn1f_qexp, 1e-3), rn1f_qmax), G_p the conductance as
+    programmed (aihwkit: q_s of g_prog), t its age; the draw replaces the
     previous one and every read until the next ``elapse`` sees it (aihwkit draws it once
     per ``drift_weights(t)``). Devices written since the last ``elapse`` start clean."""
     rn1f_q0: float = 0.0088
@@ -416,9 +418,11 @@ def _validate(c: DeviceConfig) -> None:
 
 
 PCM_PULSE_GAIN = 3.2
-"""The pcm preset's controller calibration (``pulse_gain``): its mean device's mean SET
-step from g_min to 90 % of the range, in units of dG, as ``cml-edge device
-characterize --preset pcm`` measures it (README, issue 12 figures)."""
+"""The pcm preset's controller calibration (``pulse_gain``): the mean SET step of its
+mean device (nominal bounds) from g_min to 90 % of the range, in units of dG: 56 pulses
+take it from 0 to 22.5 uS (``kernels.set_pulses``), 22.5 / 56 / 0.125 = 3.2. With the
+device-to-device spread of the upper bound, ``cml-edge device characterize`` counts more
+(README, issue 12 figures)."""
 
 _DEVICE = dict(update="pulsed", commit="pulse", dac_bits=7, adc_bits=9, adc_bound=12.0,
                w_max_v=0.02)

@@ -459,15 +459,22 @@ def _move_model(g, up, s, z, lo, hi, P):
     step = dG * s * f
     c = P.c2c
     if c == C2C_MULT:
-        d = step * (1.0 + P.dw_min_std * z)
+        sd = P.dw_min_std * step
     elif c == C2C_ADD:
-        d = dG * s * (f + P.dw_min_std * z)
+        sd = P.dw_min_std * dG * s
     else:
         g0 = lo + P.step_center * (hi - lo)
-        d = step + P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
-                                   + P.c2c_slope * abs(g - g0)) * z
-    if P.set_only and d < 0.0:  # a SET pulse never lowers G
+        sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
+                             + P.c2c_slope * abs(g - g0))
+    if P.set_only:
+        # a SET pulse never lowers G: the step is log-normal with the model's mean and std
         d = 0.0
+        if step > 0.0:
+            cv = sd / step
+            v = math.log1p(cv * cv)
+            d = step * math.exp(math.sqrt(v) * z - 0.5 * v)
+    else:
+        d = step + sd * z
     g = g + d if up else g - d
     return min(max(g, lo), hi)
 
@@ -521,10 +528,7 @@ def set_pulses(target, P):
     g = P.g_min
     n = 0
     while g < target and n < 100000:
-        if P.step_model == STEP_BOUNDS:
-            g2 = _move(g, True, 1.0, 0.0, P)
-        else:
-            g2 = _move_model(g, True, 1.0, 0.0, P.g_min, P.g_max, P)
+        g2 = min(g + P.dG * step_factor(g, True, P.g_min, P.g_max, P), P.g_max)
         n += 1
         if not g2 > g:
             break
@@ -1015,9 +1019,10 @@ def xbar_elapse(state, seconds):
                     G = G - state.rn[d, i, j]
                 f = ((a + seconds + t0) / (a + t0)) ** (-state.nu[d, i, j])
                 G = max(G * f, g_min)
-                if fresh:
+                if fresh:  # q_s of the conductance as written, the std of the drifted one
                     t = a + seconds + t0
-                    q = min(P.rn1f_q0 / max((abs(G) / P.g_max) ** P.rn1f_qexp, 1e-3),
+                    g_prog = G * (t / t0) ** state.nu[d, i, j]
+                    q = min(P.rn1f_q0 / max((abs(g_prog) / P.g_max) ** P.rn1f_qexp, 1e-3),
                             P.rn1f_qmax)
                     sig = P.rn1f * q * math.sqrt(math.log((t + t_read) / (2.0 * t_read)))
                     z, ctr = normal_at(key, ctr)
