@@ -266,6 +266,9 @@ def _upgrade_issue12(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     if "Gp" not in d or "counters" not in d or np.asarray(d["Gp"]).ndim != 2:
         return d  # refused by the loader
     names = json.loads(str(d["__params__"]))
+    if not isinstance(names, list) or np.asarray(d["params"]).shape != (len(names),):
+        raise InputError(f"field 'params' has shape {np.asarray(d['params']).shape} for "
+                         f"{len(names) if isinstance(names, list) else '?'} field names")
     out = dict(d)
     if names != list(CrossbarParams._fields):
         old = dict(zip(names, np.asarray(d["params"]).tolist()))
