@@ -16,25 +16,55 @@ Presets and where their numbers come from (the figures are collected in
     (nothing clipped, even as the weights grow). Reproduces the float64 result (to
     rounding).
 ``pcm``
-    IBM aihwkit's PCM models. Range 0..25 uS (``PCMLikeNoiseModel`` g_max); programming
-    noise polynomial (0.26348, 1.9650, -1.1731) at 25 uS; drift nu = 0.049 +- 0.008,
-    t0 = 20 s (``generate_drift_coefficients``: the clamped mean and std for
-    mid-range conductances, where a balanced pair sits); pulsed device from
-    ``PCMPresetDevice`` (Nandakumar et al. 2020): dw_min = 0.01 of a 0..2 range, i.e.
-    201 levels, device-to-device 20 %, cycle-to-cycle 60 %, up/down spread 5 %;
-    periphery from aihwkit ``IOParameters``: 7-bit DAC, 9-bit ADC with bound 12,
-    output noise 0.06.
+    IBM aihwkit's statistical PCM model (HEAD 4545f11; ``inference/noise/pcm.py``
+    ``PCMLikeNoiseModel``, ``presets/devices.py`` ``PCMPresetDevice``,
+    ``presets/compounds.py`` ``PCMPresetUnitCell``, ``parameters/io.py``
+    ``IOParameters``, ``inference/compensation/drift.py``), one number per source:
+
+    - range 0..25 uS (``SinglePairConductanceConverter`` g_max / g_min), one-sided
+      mapping (the same converter; also CrossSim's default ``ONE_SIDED``);
+    - programming noise polynomial (0.26348, 1.9650, -1.1731) uS at 25 uS
+      (``PCMLikeNoiseModel.prog_coeff``);
+    - drift: t0 = 20 s; nu from the target conductance, mean clip(-0.0155 ln g +
+      0.0244, 0.049, 0.1), std clip(-0.0125 ln g - 0.0059, 0.008, 0.045), folded
+      (``generate_drift_coefficients``);
+    - accumulated 1/f read noise q_s = min(0.0088 / g^0.65, 0.2), t_read = 250 ns, scale 1
+      (``apply_drift_noise_to_conductance``);
+    - SET-only pairs with refresh at 0.75 / 0.25 of the range (``OneSidedUnitCell``,
+      ``PCMPresetUnitCell``: refresh_every 1, default thresholds);
+    - ExpStep pulses (``PCMPresetDevice``, Nandakumar et al. 2020): dw_min 0.01 of a
+      0..2 range (dG = 0.125 uS, ``levels`` 201), a = -1, b = 0 (``step_center`` 0),
+      A_up = -27.235, A_down = -2.235, gamma 2.5 / 2.5, dw_min_dtod 0.2, up_down_dtod
+      0.05, w_max_dtod 0.1 (``bound_dtod_up``), w_min_dtod 0, dw_min_std 0.6 with
+      dw_min_std_add 0.042 and slope 0.108 (``c2c`` complex, add 0.042 / 2 of the range);
+      steps 3.2 / 0.40 / 0.16 uS at 0.5 / 12.5 / 24 uS; 56 pulses from 0 to 22.5 uS;
+    - the controller counts a pulse as the mean step over that sweep (``pulse_gain`` 3.2,
+      :data:`PCM_PULSE_GAIN`);
+    - periphery from ``IOParameters`` defaults: 7-bit DAC (inp_res 1/126), 9-bit ADC
+      (out_res 1/510) with bound 12, out_noise 0.06, bound management ITERATIVE (5 passes
+      at most); w_noise 0 (``InferenceRPUConfig``: no per-read weight noise);
+    - global drift compensation on, read through the periphery
+      (``InferenceRPUConfig.drift_compensation = GlobalDriftCompensation()``).
 ``reram``
     Sandia CrossSim ``RRAM_Milo`` (Milo et al., IRPS 2021): 50..225 uS (on/off 4.5),
-    programming noise sigma = max(4.782321 - 0.009107 G, 0) uS; no drift model; pulsed
-    device from aihwkit ``ReRamSBPresetDevice`` (Gong et al. 2018): dw_min = 0.002 of a
-    2-wide range, i.e. 1001 levels, soft bounds, device-to-device 30 %, up/down spread
-    1 %, cycle-to-cycle 3.75 (375 %: that device is very noisy per pulse); read noise
-    1 % of the range per device and read (the reference's ReRAM weight noise); the same
-    7-bit DAC / 9-bit ADC periphery, no output noise.
+    programming noise sigma = max(4.782321 - 0.009107 G, 0) uS; no drift model; one-sided
+    mapping (CrossSim's default); pulsed device from aihwkit ``ReRamSBPresetDevice``
+    (Gong et al. 2018): soft bounds at w_max 1.25 / w_min -0.75 (``step_center`` 0.375:
+    asymmetric), dw_min = 0.002 of the 2-wide range (``levels`` 1001), bound spread
+    w_max_dtod 0.3 / 1.25 = 0.24, w_min_dtod 0.3 / 0.75 = 0.4, dw_min_dtod 0.3,
+    up_down_dtod 0.01, additive cycle-to-cycle noise 3.75 dw_min (``mult_noise`` False),
+    write noise 56 dw_min; read noise 1 % of the range per device and read (the
+    reference's ReRAM weight noise); 7-bit DAC / 9-bit ADC, bound 12, bound management
+    ITERATIVE, no output noise.
+``pcm-symmetric``, ``reram-symmetric``
+    The ``pcm`` and ``reram`` presets of earlier releases, unchanged, so that earlier
+    results stay reproducible bit for bit: two-sided pairs, bidirectional steps that
+    shrink linearly to both ends of the range (``bounds`` soft), nu = 0.049 +- 0.008 at
+    every conductance, no accumulated read noise, no refresh. Their ``levels`` read
+    aihwkit's dw_min as 201 (PCM) and 1001 (ReRAM) evenly spaced levels.
 
-Both device presets use the per-walk accumulate-then-pulse commit and the pulsed
-update, and the same weight scale (w_max_q, w_max_k automatic = max|W0|; w_max_v = 0.02,
+The device presets use the per-walk accumulate-then-pulse commit and the pulsed update,
+and the same weight scale (w_max_q, w_max_k automatic = max|W0|; w_max_v = 0.02,
 see :class:`DeviceConfig`). Stuck devices are 0 in the presets (aihwkit keeps its
 measured corrupt-device fractions, 10-13.5 % for its ReRAM arrays, off by default);
 sweep them with ``--set stuck_low=...``.

@@ -47,6 +47,23 @@ going up, 2 (G - g_min) / (g_max - g_min) going down. Every write clips a device
 [g_min, g_max]; stuck devices never change. Only devices actually pulsed or
 programmed are written (and get write noise); a write restarts the device's drift clock.
 
+Calibrated physics (issue 12; each off at its config default, and then the code paths
+and draws above are exactly those of earlier releases): a ``one-sided`` mapping programs
+one device of a pair to g_min; a ``set_only`` pair sends each pulse to one device, up (G+
+to raise w, G- to lower it), and a ``refresh`` pair that saturates is RESET and its
+difference write-verified onto the larger device; ``step_model`` gives the step's
+dependence on G (:func:`step_factor`) between the device's own bounds ``bnd`` and
+``c2c`` its cycle-to-cycle noise; ``write_noise`` reads a pulsed device as its hidden
+state plus a fresh offset (``wn``); reads add ``read_noise_pcm`` (PCM_READ) per output
+and, with ``bound_management``, repeat a saturated read with halved inputs; ``elapse``
+adds the accumulated read noise (``rn``, one persistent draw per device per call), uses
+the conductance-dependent nu, and compensates drift from calibration reads through the
+periphery. Extra draws come after the existing ones of the same operation: per pulse
+and device, the c2c normal then the write-noise normal; a refresh's programming noise
+after its pair's pulses; at construction, the bounds after the programming noise; in
+``elapse``, the calibration read before, then one normal per device (row by row, G+
+before G-), then the calibration read after.
+
 Randomness: one counter-based stream per array, ``uniform(rng[0], c)`` from
 :mod:`cml_edge.rng` at the counter c = ``rng[1]``, advanced by one per uniform
 drawn. Normal deviates come from those uniforms by the Marsaglia-Tsang ziggurat (256
