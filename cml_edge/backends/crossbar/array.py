@@ -1,14 +1,15 @@
 """The memristive crossbar synaptic array: differential conductance pairs on an analog array.
 
 A weight matrix W (rows x cols) lives on rows x cols pairs of devices,
-W = (G+ - G-) / g_per_w with g_per_w = (g_max - g_min) / w_max (the balanced map of
-:mod:`cml_edge.backends.crossbar.conductance`). ``w_max``, the weight of a full conductance swing,
-is this array's weight-to-conductance scale: the configured ``w_max_q`` / ``w_max_k`` /
-``w_max_v`` for the array's index (0, 1, 2 = W_q, W_k, W_v), or, when that is 0,
-``w_headroom`` x max|W| of the matrix it was programmed with. The reads, updates, noise,
-drift and faults are the kernels' (:mod:`cml_edge.backends.crossbar.kernels`); the device
-numbers are a :class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``,
-``pcm``, ``reram``), which the kernels read as the
+W = (G+ - G-) / g_per_w with g_per_w = (g_max - g_min) / w_max (the two-sided or
+one-sided map of :mod:`cml_edge.backends.crossbar.conductance`). ``w_max``, the weight
+of a full conductance swing, is this array's weight-to-conductance scale: the
+configured ``w_max_q`` / ``w_max_k`` / ``w_max_v`` for the array's index (0, 1, 2 =
+W_q, W_k, W_v), or, when that is 0, ``w_headroom`` x max|W| of the matrix it was
+programmed with. The reads, updates, noise, drift and faults are the kernels'
+(:mod:`cml_edge.backends.crossbar.kernels`); the device numbers are a
+:class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``, ``pcm``,
+``reram``, ``pcm-symmetric``, ``reram-symmetric``), which the kernels read as the
 :class:`~cml_edge.backends.crossbar.config.CrossbarParams` record.
 """
 
