@@ -77,9 +77,11 @@ TECHNOLOGIES: dict[str, CostModel] = {
     # this form; the int8 MAC (8-bit weights) and SRAM byte are the closest sourced figures
     "loihi2": CostModel("int8_mac"),
     # analog MACs (the figure includes DAC/ADC conversions) and one write pulse per device
-    # pulse; no SRAM traffic
+    # pulse; no SRAM traffic. The crossbar counts the MACs of drift-compensation
+    # calibration reads and of bound management's re-reads in analog_macs, and the RESET
+    # and SET pulses of its pair refreshes as refresh_pulses
     "analog": CostModel("analog_mac", ("analog_macs",), None, (), "write_pulse",
-                        ("device_pulses",)),
+                        ("device_pulses", "refresh_pulses")),
     NOT_COSTED: CostModel(None),  # a device that declares no technology
 }
 """The cost models a device can declare (``DeviceSpec.technology``)."""

@@ -224,11 +224,24 @@ def state_equal(a, b) -> bool:
 
 
 # the update --------------------------------------------------------------------------------
+# Devices calibrated to the references (issue 12) that do not follow the rule this closely,
+# and what was measured for them (tests/test_crossbar.py checks their step models): the
+# SET-only PCM's exponential steps are up to 9x the controller's full-range calibration
+# where one-sided weights sit (projection 2.6-2.9); the ReRAM's write noise (56 dG per
+# pulse) and additive cycle-to-cycle noise (3.75 dG) decorrelate a 20-update burst
+# (correlation 0.55-0.70). Strict: if one of them starts to pass, this list is wrong.
+DEVIATES_FROM_RULE = {("crossbar", "pcm"): "projection 2.6-2.9 (ExpStep steps, one-sided)",
+                      ("crossbar", "reram"): "correlation 0.55-0.70 (write and c2c noise)"}
+
+
 @pytest.mark.parametrize("defer", [False, True])
 @pytest.mark.parametrize("shape", SHAPES)
-def test_update_follows_the_local_rule(case, shape, defer):
+def test_update_follows_the_local_rule(case, shape, defer, request):
     """K updates of lr post pre^T, at most 0.25 per cell in all: the weights' change
     correlates with the rule's (> 0.8) and has its size (projection 0.6..1.4)."""
+    reason = DEVIATES_FROM_RULE.get((case[0], case[1].get("preset")))
+    if reason is not None:
+        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
     arr = new(case, initial(shape))
     post, pre = factors(shape)
     K = 20

@@ -99,7 +99,8 @@ def test_state_round_trip_is_exact_and_continues_identically():
 
 
 # noise ----------------------------------------------------------------------------------
-@pytest.mark.parametrize("preset,w", [("pcm", 0.0), ("pcm", 0.6), ("reram", -0.4)])
+@pytest.mark.parametrize("preset,w", [("pcm-symmetric", 0.0), ("pcm-symmetric", 0.6),
+                                      ("reram-symmetric", -0.4)])
 def test_programming_noise_std_matches_the_model(preset, w):
     n = 200
     arr = xbar(np.full((n, n), w), preset=preset, index=0, w_max_q=1.0, levels=0,
@@ -218,7 +219,8 @@ finite = st.floats(-2, 2, allow_nan=False, width=64)
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.sampled_from(SHAPES), st.sampled_from(["pcm", "reram", "ideal", "grid"]),
+@given(st.sampled_from(SHAPES), st.sampled_from(["pcm-symmetric", "reram-symmetric", "ideal",
+                                                 "grid"]),
        st.booleans(), st.floats(0.0, 0.3), st.floats(1e-4, 1.0), st.data())
 def test_in_place_update_properties(shape, preset, soft, stuck, lr, data):
     """Same buffers, conductances in range, zero factors leave their rows / columns alone."""

@@ -11,8 +11,9 @@ DEVICE = DeviceSpec(
     kernels=Kernels(kernels.xbar_matvec, kernels.xbar_rmatvec, kernels.xbar_outer_update,
                     kernels.xbar_commit, kernels.xbar_sigmoid),
     config_class=DeviceConfig,
-    backends={"crossbar": Backend("memristive crossbar: --preset ideal|pcm|reram, --levels, "
-                                  "--set", preset=DEFAULT_PRESET, fixed=False)},
+    backends={"crossbar": Backend("memristive crossbar: --preset ideal|pcm|reram|"
+                                  "pcm-symmetric|reram-symmetric, --levels, --set",
+                                  preset=DEFAULT_PRESET, fixed=False)},
     presets=PRESETS,
     technology="analog",
     report=tuple((f"crossbar-{p}", "crossbar", {"preset": p}) for p in PRESETS),

@@ -1,14 +1,15 @@
 """The memristive crossbar synaptic array: differential conductance pairs on an analog array.
 
 A weight matrix W (rows x cols) lives on rows x cols pairs of devices,
-W = (G+ - G-) / g_per_w with g_per_w = (g_max - g_min) / w_max (the balanced map of
-:mod:`cml_edge.backends.crossbar.conductance`). ``w_max``, the weight of a full conductance swing,
-is this array's weight-to-conductance scale: the configured ``w_max_q`` / ``w_max_k`` /
-``w_max_v`` for the array's index (0, 1, 2 = W_q, W_k, W_v), or, when that is 0,
-``w_headroom`` x max|W| of the matrix it was programmed with. The reads, updates, noise,
-drift and faults are the kernels' (:mod:`cml_edge.backends.crossbar.kernels`); the device
-numbers are a :class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``,
-``pcm``, ``reram``), which the kernels read as the
+W = (G+ - G-) / g_per_w with g_per_w = (g_max - g_min) / w_max (the two-sided or
+one-sided map of :mod:`cml_edge.backends.crossbar.conductance`). ``w_max``, the weight
+of a full conductance swing, is this array's weight-to-conductance scale: the
+configured ``w_max_q`` / ``w_max_k`` / ``w_max_v`` for the array's index (0, 1, 2 =
+W_q, W_k, W_v), or, when that is 0, ``w_headroom`` x max|W| of the matrix it was
+programmed with. The reads, updates, noise, drift and faults are the kernels'
+(:mod:`cml_edge.backends.crossbar.kernels`); the device numbers are a
+:class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``, ``pcm``,
+``reram``, ``pcm-symmetric``, ``reram-symmetric``), which the kernels read as the
 :class:`~cml_edge.backends.crossbar.config.CrossbarParams` record.
 """
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import types
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -24,6 +26,7 @@ from cml_edge.backends.base import SynapticArray
 from cml_edge.backends.crossbar import kernels as kern
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
+    NEW_FIELDS,
     PRESETS,
     CrossbarParams,
     DeviceConfig,
@@ -52,6 +55,12 @@ class CrossbarState(NamedTuple):
     ybuf: np.ndarray  # float64[max(rows, cols)]: analog sums of a read
     bits: np.ndarray  # int64[rows + cols]: pulse trains of the lines (bit t = slot t)
     idx: np.ndarray  # int64[max(rows, cols)]: the columns that fired
+    nu_z: np.ndarray  # (2, rows, cols) float64: each device's fixed normal behind nu
+    bnd: np.ndarray  # (4, rows, cols) float64: bounds lo, hi of G+, then of G- (uS)
+    wn: np.ndarray  # (2, rows, cols) float64: write-noise offsets of G+, G- (uS)
+    rn: np.ndarray  # (2, rows, cols) float64: accumulated read-noise draws of G+, G- (uS)
+    sbuf: np.ndarray  # float64[rows + cols]: calibration reads' inputs and outputs
+    vbuf: np.ndarray  # float64[max(rows, cols)]: per-output variance of a PCM_READ read
     counters: np.ndarray  # int64[N_COUNTERS]
 
 
@@ -74,7 +83,10 @@ class CrossbarArray(SynapticArray):
     coincidences of the in-place pulsed update; ``device_pulses`` pulses that reached a
     device (two per coincidence, one per device per commit pulse); ``devices_written``
     devices pulsed or programmed, once per update or commit; ``commits``; ``rng_draws``
-    uniforms drawn from the array's stream.
+    uniforms drawn from the array's stream. Counted only where the config enables them
+    (and listed by ``counters`` only then, so that earlier results keep their keys):
+    ``refreshes`` and ``refresh_pulses`` (``refresh``), ``calibration_reads`` (one per
+    one-hot read of a periphery drift compensation), ``bm_rereads`` (bound management).
     """
 
     name = "crossbar"
@@ -83,7 +95,8 @@ class CrossbarArray(SynapticArray):
     counter_names = (
         "matvecs", "rmatvecs", "analog_macs", "dac_conversions", "adc_conversions",
         "adc_saturations", "outer_updates", "acc_writes", "line_pulses", "coincidences",
-        "device_pulses", "devices_written", "commits", "rng_draws",
+        "device_pulses", "devices_written", "commits", "rng_draws", "refreshes",
+        "refresh_pulses", "calibration_reads", "bm_rereads",
     )
     assert len(counter_names) == kern.N_COUNTERS
 
@@ -118,9 +131,28 @@ class CrossbarArray(SynapticArray):
     def options(self) -> dict[str, Any]:
         return {"preset": self.preset, **self.config.to_dict()}
 
+    @property
+    def counters(self) -> dict[str, int]:
+        """The counters, without those of effects the config leaves off (class docstring)."""
+        c = self.config
+        off = set()
+        if not c.refresh:
+            off |= {"refreshes", "refresh_pulses"}
+        if not (c.drift_compensation and c.compensation_read == "periphery"):
+            off.add("calibration_reads")
+        if not c.bound_management:
+            off.add("bm_rereads")
+        return {k: int(v) for k, v in zip(self.counter_names, self.state.counters)
+                if k not in off}
+
+    @classmethod
+    def _template(cls, options: dict[str, Any], counters_shape: tuple[int, ...]) -> Any:
+        return cls.from_float(np.zeros((1, 1)), seed=0, index=0,
+                              **saved_options(options)).state
+
     @classmethod
     def _restore(cls, state: CrossbarState, options: dict[str, Any]) -> CrossbarArray:
-        options = dict(options)
+        options = saved_options(options)
         preset = options.pop("preset", cls.DEFAULT_PRESET)
         state = state._replace(Gp=_laid_out(state.Gp), Gm=_laid_out(state.Gm),
                                acc=_laid_out(state.acc))
@@ -130,7 +162,11 @@ class CrossbarArray(SynapticArray):
             if getattr(state, f).shape != (size,):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected ({size},)")
-        for f, k in (("step", 4), ("nu", 2), ("age", 2), ("stuck", 2)):
+        if state.sbuf.shape != (sum(state.Gp.shape),) or state.vbuf.shape != (n,):
+            raise InputError(f"fields 'sbuf' / 'vbuf' have shapes {state.sbuf.shape} / "
+                             f"{state.vbuf.shape}, expected ({sum(state.Gp.shape)},) / ({n},)")
+        for f, k in (("step", 4), ("nu", 2), ("age", 2), ("stuck", 2), ("nu_z", 2),
+                     ("bnd", 4), ("wn", 2), ("rn", 2)):
             if getattr(state, f).shape != (k, *state.Gp.shape):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected {(k, *state.Gp.shape)}")
@@ -147,19 +183,20 @@ class CrossbarArray(SynapticArray):
         the record is rebuilt from the saved options and the saved w_max, and the old
         vector must equal that record's legacy view, or the file is refused."""
         if "__params__" in d or "params" not in d:
-            return d
+            return _upgrade_issue12(d)
         old = np.asarray(d["params"])
         if old.dtype != np.float64 or old.shape != (len(LEGACY_PARAMS),):
             raise InputError(f"field 'params' has shape {old.shape}, expected "
                              f"({len(LEGACY_PARAMS)},)")
         slots = dict(zip(LEGACY_PARAMS, old.tolist()))
-        options = dict(json.loads(str(d["__options__"])))
+        options = saved_options(json.loads(str(d["__options__"])))
         preset = options.pop("preset", cls.DEFAULT_PRESET)
         record = crossbar_params(make_config(preset, **options), slots["w_max"])
         if not np.array_equal(legacy_params(record, slots["alpha"], slots["elapsed"]), old):
             raise InputError("crossbar parameters do not match the saved options")
-        return {**d, "params": record_to_array(record), "__params__": record_names(record),
-                "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])}
+        return _upgrade_issue12(
+            {**d, "params": record_to_array(record), "__params__": record_names(record),
+             "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])})
 
     # the seam extras ----------------------------------------------------------------
     def to_float(self) -> np.ndarray:
@@ -202,8 +239,73 @@ def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
         elapsed=np.zeros(1),
         rng=np.array([key, 0], dtype=np.uint64), xbuf=np.zeros(n), ybuf=np.zeros(n),
         bits=np.zeros(rows + cols, np.int64), idx=np.zeros(n, np.int64),
+        nu_z=np.zeros((2, rows, cols)), bnd=_nominal_bounds(params, rows, cols),
+        wn=np.zeros((2, rows, cols)), rn=np.zeros((2, rows, cols)),
+        sbuf=np.zeros(rows + cols), vbuf=np.zeros(n),
         counters=np.zeros(kern.N_COUNTERS, np.int64),
     )
+
+
+def saved_options(options: dict[str, Any]) -> dict[str, Any]:
+    """Saved options with every field added by issue 12 that they lack at its default (off):
+    a file saved before those fields restores with the physics it was saved with, not with
+    what its preset names now (``pcm`` then is ``pcm-symmetric`` now)."""
+    options = dict(options)
+    defaults = DeviceConfig()
+    for name in NEW_FIELDS:
+        options.setdefault(name, getattr(defaults, name))
+    return options
+
+
+def _upgrade_issue12(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A state saved before issue 12: the parameter record gains the new fields (from the
+    completed options, with the saved w_max; the saved fields must agree), the new state
+    arrays start at their neutral values (no bound spread, no noise offsets) and the new
+    counters at 0."""
+    if "params" not in d or "__params__" not in d or "__options__" not in d:
+        return d
+    if "Gp" not in d or "counters" not in d or np.asarray(d["Gp"]).ndim != 2:
+        return d  # refused by the loader
+    names = json.loads(str(d["__params__"]))
+    if not isinstance(names, list) or np.asarray(d["params"]).shape != (len(names),):
+        raise InputError(f"field 'params' has shape {np.asarray(d['params']).shape} for "
+                         f"{len(names) if isinstance(names, list) else '?'} field names")
+    out = dict(d)
+    if names != list(CrossbarParams._fields):
+        old = dict(zip(names, np.asarray(d["params"]).tolist()))
+        if "w_max" not in old or set(old) - set(CrossbarParams._fields):
+            return d  # refused by the loader, naming the fields it expected
+        options = saved_options(json.loads(str(d["__options__"])))
+        preset = options.pop("preset", DEFAULT_PRESET)
+        record = crossbar_params(make_config(preset, **options), old["w_max"])
+        if any(getattr(record, k) != v for k, v in old.items()):
+            raise InputError("crossbar parameters do not match the saved options")
+        out.update(params=record_to_array(record), __params__=record_names(record))
+    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn", "sbuf", "vbuf")):
+        return d  # the current layout
+    else:
+        record = dict(zip(names, np.asarray(d["params"]).tolist()))
+        record = types.SimpleNamespace(g_min=record.get("g_min", 0.0),
+                                       g_max=record.get("g_max", 1.0))
+    rows, cols = np.asarray(d["Gp"]).shape
+    counters = np.asarray(d["counters"])
+    out.setdefault("nu_z", np.zeros((2, rows, cols)))
+    out.setdefault("bnd", _nominal_bounds(record, rows, cols))
+    out.setdefault("wn", np.zeros((2, rows, cols)))
+    out.setdefault("rn", np.zeros((2, rows, cols)))
+    out.setdefault("sbuf", np.zeros(rows + cols))
+    out.setdefault("vbuf", np.zeros(max(rows, cols)))
+    if counters.ndim == 1 and counters.shape[0] < kern.N_COUNTERS:
+        out["counters"] = np.concatenate(
+            [counters, np.zeros(kern.N_COUNTERS - counters.shape[0], counters.dtype)])
+    return out
+
+
+def _nominal_bounds(params: Any, rows: int, cols: int) -> np.ndarray:
+    b = np.empty((4, rows, cols))
+    b[0::2] = params.g_min
+    b[1::2] = params.g_max
+    return b
 
 
 # the layout before the parameter record ---------------------------------------------------

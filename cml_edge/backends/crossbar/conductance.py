@@ -7,7 +7,10 @@ move in opposite directions,
 
     G+ = g_c + w g_per_w / 2,    G- = g_c - w g_per_w / 2,    g_per_w = (g_max - g_min) / w_max,
 
-so |w| = w_max puts one device at g_max and the other at g_min. w_max, the weight of a
+so |w| = w_max puts one device at g_max and the other at g_min. The ``one-sided`` map
+(``DeviceConfig.mapping``; aihwkit's and CrossSim's default) puts the idle device at g_min
+instead: G+ = g_min + max(w, 0) g_per_w, G- = g_min + max(-w, 0) g_per_w, with the same
+g_per_w. w_max, the weight of a
 full conductance swing, is the stated weight-to-conductance scale of an array.
 
 A device has ``levels`` evenly spaced programmable states on [g_min, g_max] (0: a

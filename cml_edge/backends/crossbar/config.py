@@ -16,25 +16,55 @@ Presets and where their numbers come from (the figures are collected in
     (nothing clipped, even as the weights grow). Reproduces the float64 result (to
     rounding).
 ``pcm``
-    IBM aihwkit's PCM models. Range 0..25 uS (``PCMLikeNoiseModel`` g_max); programming
-    noise polynomial (0.26348, 1.9650, -1.1731) at 25 uS; drift nu = 0.049 +- 0.008,
-    t0 = 20 s (``generate_drift_coefficients``: the clamped mean and std for
-    mid-range conductances, where a balanced pair sits); pulsed device from
-    ``PCMPresetDevice`` (Nandakumar et al. 2020): dw_min = 0.01 of a 0..2 range, i.e.
-    201 levels, device-to-device 20 %, cycle-to-cycle 60 %, up/down spread 5 %;
-    periphery from aihwkit ``IOParameters``: 7-bit DAC, 9-bit ADC with bound 12,
-    output noise 0.06.
+    IBM aihwkit's statistical PCM model (HEAD 4545f11; ``inference/noise/pcm.py``
+    ``PCMLikeNoiseModel``, ``presets/devices.py`` ``PCMPresetDevice``,
+    ``presets/compounds.py`` ``PCMPresetUnitCell``, ``parameters/io.py``
+    ``IOParameters``, ``inference/compensation/drift.py``), one number per source:
+
+    - range 0..25 uS (``SinglePairConductanceConverter`` g_max / g_min), one-sided
+      mapping (the same converter; also CrossSim's default ``ONE_SIDED``);
+    - programming noise polynomial (0.26348, 1.9650, -1.1731) uS at 25 uS
+      (``PCMLikeNoiseModel.prog_coeff``);
+    - drift: t0 = 20 s; nu from the target conductance, mean clip(-0.0155 ln g +
+      0.0244, 0.049, 0.1), std clip(-0.0125 ln g - 0.0059, 0.008, 0.045), folded
+      (``generate_drift_coefficients``);
+    - accumulated 1/f read noise q_s = min(0.0088 / g^0.65, 0.2), t_read = 250 ns, scale 1
+      (``apply_drift_noise_to_conductance``);
+    - SET-only pairs with refresh at 0.75 / 0.25 of the range (``OneSidedUnitCell``,
+      ``PCMPresetUnitCell``: refresh_every 1, default thresholds);
+    - ExpStep pulses (``PCMPresetDevice``, Nandakumar et al. 2020): dw_min 0.01 of a
+      0..2 range (dG = 0.125 uS, ``levels`` 201), a = -1, b = 0 (``step_center`` 0),
+      A_up = -27.235, A_down = -2.235, gamma 2.5 / 2.5, dw_min_dtod 0.2, up_down_dtod
+      0.05, w_max_dtod 0.1 (``bound_dtod_up``), w_min_dtod 0, dw_min_std 0.6 with
+      dw_min_std_add 0.042 and slope 0.108 (``c2c`` complex, add 0.042 / 2 of the range);
+      steps 3.2 / 0.40 / 0.16 uS at 0.5 / 12.5 / 24 uS; 56 pulses from 0 to 22.5 uS;
+    - the controller counts a pulse as the mean step over that sweep (``pulse_gain`` 3.2,
+      :data:`PCM_PULSE_GAIN`);
+    - periphery from ``IOParameters`` defaults: 7-bit DAC (inp_res 1/126), 9-bit ADC
+      (out_res 1/510) with bound 12, out_noise 0.06, bound management ITERATIVE (5 passes
+      at most); w_noise 0 (``InferenceRPUConfig``: no per-read weight noise);
+    - global drift compensation on, read through the periphery
+      (``InferenceRPUConfig.drift_compensation = GlobalDriftCompensation()``).
 ``reram``
     Sandia CrossSim ``RRAM_Milo`` (Milo et al., IRPS 2021): 50..225 uS (on/off 4.5),
-    programming noise sigma = max(4.782321 - 0.009107 G, 0) uS; no drift model; pulsed
-    device from aihwkit ``ReRamSBPresetDevice`` (Gong et al. 2018): dw_min = 0.002 of a
-    2-wide range, i.e. 1001 levels, soft bounds, device-to-device 30 %, up/down spread
-    1 %, cycle-to-cycle 3.75 (375 %: that device is very noisy per pulse); read noise
-    1 % of the range per device and read (the reference's ReRAM weight noise); the same
-    7-bit DAC / 9-bit ADC periphery, no output noise.
+    programming noise sigma = max(4.782321 - 0.009107 G, 0) uS; no drift model; one-sided
+    mapping (CrossSim's default); pulsed device from aihwkit ``ReRamSBPresetDevice``
+    (Gong et al. 2018): soft bounds at w_max 1.25 / w_min -0.75 (``step_center`` 0.375:
+    asymmetric), dw_min = 0.002 of the 2-wide range (``levels`` 1001), bound spread
+    w_max_dtod 0.3 / 1.25 = 0.24, w_min_dtod 0.3 / 0.75 = 0.4, dw_min_dtod 0.3,
+    up_down_dtod 0.01, additive cycle-to-cycle noise 3.75 dw_min (``mult_noise`` False),
+    write noise 56 dw_min; read noise 1 % of the range per device and read (the
+    reference's ReRAM weight noise); 7-bit DAC / 9-bit ADC, bound 12, bound management
+    ITERATIVE, no output noise.
+``pcm-symmetric``, ``reram-symmetric``
+    The ``pcm`` and ``reram`` presets of earlier releases, unchanged, so that earlier
+    results stay reproducible bit for bit: two-sided pairs, bidirectional steps that
+    shrink linearly to both ends of the range (``bounds`` soft), nu = 0.049 +- 0.008 at
+    every conductance, no accumulated read noise, no refresh. Their ``levels`` read
+    aihwkit's dw_min as 201 (PCM) and 1001 (ReRAM) evenly spaced levels.
 
-Both device presets use the per-walk accumulate-then-pulse commit and the pulsed
-update, and the same weight scale (w_max_q, w_max_k automatic = max|W0|; w_max_v = 0.02,
+The device presets use the per-walk accumulate-then-pulse commit and the pulsed update,
+and the same weight scale (w_max_q, w_max_k automatic = max|W0|; w_max_v = 0.02,
 see :class:`DeviceConfig`). Stuck devices are 0 in the presets (aihwkit keeps its
 measured corrupt-device fractions, 10-13.5 % for its ReRAM arrays, off by default);
 sweep them with ``--set stuck_low=...``.
@@ -59,6 +89,10 @@ from cml_edge.errors import InputError
 UPDATES = ("analog", "pulsed")
 COMMITS = ("program", "pulse")
 BOUNDS = ("hard", "soft")
+MAPPINGS = ("two-sided", "one-sided")
+STEP_MODELS = ("bounds", "linear", "soft", "exp", "pow")
+C2C_MODELS = ("mult", "add", "complex")
+COMPENSATION_READS = ("ideal", "periphery")
 DEFAULT_PRESET = "pcm"
 
 
@@ -150,6 +184,155 @@ class DeviceConfig:
     """Global drift compensation: one output scale per array, from a calibration read
     (sum |G+ - G-|) before and after the drift."""
 
+    # calibrated device physics (issue 12). Every field below is off at its default, so
+    # a config that does not name it behaves, draw for draw, as before these fields
+    # existed; a file saved before them restores with these defaults, whatever its
+    # preset says now (array.py, ``_restore``). -------------------------------------
+    mapping: str = option("two-sided", choices=MAPPINGS)
+    """Weight to conductance map of a pair (both in [g_min, g_max]). ``two-sided`` (earlier
+    releases; CrossSim ``TWO_SIDED``): both devices at the centre for w = 0, moving
+    apart by w g_per_w / 2 each. ``one-sided`` (aihwkit ``SinglePairConductanceConverter``,
+    CrossSim's default ``ONE_SIDED``): G+ = g_min + max(w, 0) g_per_w, G- = g_min +
+    max(-w, 0) g_per_w: one device idles at g_min, where it drifts least in absolute
+    terms. Both have g_per_w = (g_max - g_min) / w_max."""
+    set_only: bool = False
+    """SET-only devices (PCM: crystallisation is gradual, RESET is abrupt; aihwkit
+    ``OneSidedUnitCell``): each pulse only potentiates, the weight decreases by
+    potentiating the partner (G-). One pulse moves one device, so the nominal weight
+    step is dG / g_per_w (half a two-sided pair's)."""
+    refresh: bool = False
+    """Refresh of saturated pairs (aihwkit ``OneSidedUnitCell.refresh``): after a pair
+    is pulsed, if its larger device is above ``refresh_upper`` of the range and its
+    smaller above ``refresh_lower``, both are RESET and the pair's difference is
+    write-verified onto the device that was larger (programming noise). Counted:
+    ``refreshes`` and ``refresh_pulses`` (two RESETs plus the SET pulses of the mean
+    device from g_min to the target)."""
+    refresh_upper: float = 0.75
+    """Refresh threshold of the larger device, fraction of the range (aihwkit 0.75)."""
+    refresh_lower: float = 0.25
+    """Refresh threshold of the smaller device, fraction of the range (aihwkit 0.25)."""
+    pulse_gain: float = 1.0
+    """The conductance change per pulse the update controller assumes, in units of dG
+    (it sets dw_min, the weight a pulse is counted as). 1 = the level spacing (earlier
+    releases). A device whose real steps differ from dG (``step_model``) is calibrated
+    by setting this to its mean step over the range: (0.9 range / pulses to 90 %) / dG,
+    as ``cml-edge device characterize`` measures it."""
+    step_model: str = option("bounds", choices=STEP_MODELS)
+    """Response of a device to one pulse of nominal size s dG (s its up or down scale):
+    ``bounds`` (earlier releases): constant (``bounds`` hard) or shrinking linearly to
+    the range's ends, 2 (g_max - G) / range up (``bounds`` soft); ``linear`` (aihwkit
+    ``LinearStep``): 1 - gamma_up (G - G0) / (hi - G0) up, 1 - gamma_down (G - G0) /
+    (lo - G0) down; ``soft`` (``SoftBounds``): the same with gamma 1, so the step is zero
+    at each of the device's bounds lo / hi, and asymmetric when G0 (``step_center``)
+    is not mid-range; ``exp`` (``ExpStep``): u = (G - lo) / (hi - lo), z = 2 exp_a
+    (u - step_center) + exp_b, max(1 - exp_a_up e^(exp_gamma_up z), 0) up and
+    max(1 - exp_a_down e^(-exp_gamma_down z), 0) down; ``pow`` (``PowStep``):
+    ((hi - G) / (hi - lo))^pow_gamma up, ((G - lo) / (hi - lo))^pow_gamma down.
+    lo / hi are the device's own bounds (``bound_dtod_*``), G0 = lo + step_center
+    (hi - lo) its weight zero."""
+    step_center: float = 0.5
+    """Where the device's weight zero G0 sits in its range (fraction): aihwkit's
+    -w_min / (w_max - w_min): 0.5 symmetric, 0.375 for ReRAM (w in -0.75..1.25), 0 for
+    PCM (w in 0..2)."""
+    gamma_up: float = 1.0
+    """``linear`` step: slope of the up step against G (aihwkit ``gamma_up``)."""
+    gamma_down: float = 1.0
+    """``linear`` step: slope of the down step (aihwkit ``gamma_down``)."""
+    exp_a: float = 0.244
+    """``exp`` step: a (aihwkit ``ExpStepDevice`` default 0.244)."""
+    exp_b: float = 0.2425
+    """``exp`` step: b (default 0.2425)."""
+    exp_a_up: float = 0.00081
+    """``exp`` step: A_up (default 0.00081)."""
+    exp_a_down: float = 0.36833
+    """``exp`` step: A_down (default 0.36833)."""
+    exp_gamma_up: float = 12.44625
+    """``exp`` step: gamma_up (default 12.44625)."""
+    exp_gamma_down: float = 12.78785
+    """``exp`` step: gamma_down (default 12.78785)."""
+    pow_gamma: float = 1.0
+    """``pow`` step: the exponent (aihwkit ``PowStepDevice`` pow_gamma 1.0)."""
+    c2c: str = option("mult", choices=C2C_MODELS)
+    """Cycle-to-cycle noise of a step (std ``dw_min_std``, z fresh per pulse):
+    ``mult`` (earlier releases, aihwkit ``mult_noise``): step x (1 + dw_min_std z);
+    ``add`` (``SoftBoundsReference`` default): s dG (factor + dw_min_std z), the same
+    spread wherever the device is; ``complex`` (``ExpStep`` with dw_min_std_add/slope):
+    step + dw_min_std (|step| + c2c_add (g_max - g_min) + c2c_slope |G - G0|) z. A SET
+    pulse of a ``set_only`` device never lowers G: its step is log-normal with the same
+    mean and std (aihwkit's Gaussian lets a SET pulse lower G)."""
+    c2c_add: float = 0.0
+    """``complex`` c2c: constant term, fraction of the range (aihwkit dw_min_std_add
+    0.042 of a 2-wide range: 0.021)."""
+    c2c_slope: float = 0.0
+    """``complex`` c2c: term proportional to |G - G0| (aihwkit dw_min_std_slope 0.108)."""
+    write_noise: float = 0.0
+    """Write noise (aihwkit ``write_noise_std``), std in units of dG: a pulsed device reads
+    as its hidden state plus N(0, (write_noise dG)^2), redrawn at each pulse (the hidden
+    state is what the pulses move)."""
+    bound_dtod_up: float = 0.0
+    """Device-to-device spread of the upper bound: hi = G0 + (g_max - G0)(1 + d z),
+    relative std (aihwkit ``w_max_dtod``), clipped to [G0, g_max]; drawn per device
+    after the programming noise."""
+    bound_dtod_down: float = 0.0
+    """The same for the lower bound lo = G0 - (G0 - g_min)(1 + d z) (``w_min_dtod``)."""
+    read_noise_pcm: float = 0.0
+    """Per-read weight noise of the PCM_READ form (aihwkit ``w_noise`` with
+    ``w_noise_type=PCMRead``): each normalised output gets N(0, read_noise_pcm^2
+    sum_j |w_ij| x_j^2), |w_ij| = |G+ - G-| / range, fresh on every read."""
+    rn1f: float = 0.0
+    """Scale of the accumulated 1/f read noise (aihwkit ``PCMLikeNoiseModel``
+    read_noise_scale); 0 = off. When time is let pass (``elapse``, including 0 s), each
+    device gets one persistent draw, on its drifted conductance G:
+    N(0, (rn1f q_s(G_p) G sqrt(ln((t + t0 + t_read) / (2 t_read))))^2), q_s(G_p) =
+    min(rn1f_q0 / max((G_p / g_max)^rn1f_qexp, 1e-3), rn1f_qmax), G_p the conductance as
+    programmed (aihwkit: q_s of g_prog), t its age; the draw replaces the
+    previous one and every read until the next ``elapse`` sees it (aihwkit draws it once
+    per ``drift_weights(t)``). Devices written since the last ``elapse`` start clean."""
+    rn1f_q0: float = 0.0088
+    """q_s numerator (aihwkit 0.0088)."""
+    rn1f_qexp: float = 0.65
+    """q_s exponent (aihwkit 0.65)."""
+    rn1f_qmax: float = 0.2
+    """q_s cap (aihwkit 0.2)."""
+    rn1f_t_read: float = 250e-9
+    """Read pulse width t_read (s; aihwkit 250 ns)."""
+    drift_nu_g: bool = False
+    """Conductance-dependent drift exponent (aihwkit ``generate_drift_coefficients``):
+    nu = |mu(g) + sd(g) z|, mu = clip(nu_a ln g + nu_b, nu_lo, nu_hi), sd = clip(nu_sa
+    ln g + nu_sb, nu_slo, nu_shi), g = max(G / g_max, 1e-7), z the device's fixed normal;
+    G is the conductance the device was last written to (read at the first ``elapse``
+    after the write). Off: nu = max(drift_nu + drift_nu_std z, 0)."""
+    nu_a: float = -0.0155
+    """Slope of mu(ln g) (aihwkit -0.0155)."""
+    nu_b: float = 0.0244
+    """Intercept of mu (0.0244)."""
+    nu_lo: float = 0.049
+    """mu's lower clip (0.049)."""
+    nu_hi: float = 0.1
+    """mu's upper clip (0.1)."""
+    nu_sa: float = -0.0125
+    """Slope of sd(ln g) (-0.0125)."""
+    nu_sb: float = -0.0059
+    """Intercept of sd (-0.0059)."""
+    nu_slo: float = 0.008
+    """sd's lower clip (0.008)."""
+    nu_shi: float = 0.045
+    """sd's upper clip (0.045)."""
+    compensation_read: str = option("ideal", choices=COMPENSATION_READS)
+    """How drift compensation reads the array: ``ideal`` (earlier releases) sum |G+ - G-|
+    noise-free; ``periphery`` (aihwkit ``GlobalDriftCompensation``): the mean |output|
+    of one read per input line (one-hot inputs) through the DAC, noise and ADC, before
+    and after the idle time. Counted as ``calibration_reads`` (their MACs in
+    ``analog_macs``)."""
+    bound_management: bool = False
+    """Bound management (aihwkit ``BoundManagementType.ITERATIVE``, forward and transposed
+    reads): a read with an output at the ADC bound is repeated with the input halved,
+    up to ``bm_passes`` passes in all, each with fresh noise; the last is kept.
+    Counted as ``bm_rereads`` (their MACs and conversions in the usual counters)."""
+    bm_passes: int = 5
+    """Most passes of a managed read: aihwkit's limit max_bm_res / inp_res = 0.25 / (2 /
+    126) admits reductions 1, 2, 4, 8, 16: 5 passes."""
+
     # faults --------------------------------------------------------------------------
     stuck_low: float = 0.0
     """Fraction of devices stuck at g_min (chosen from the seed)."""
@@ -183,10 +366,13 @@ def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     """The :class:`CrossbarParams` of an array of scale ``w_max`` on ``config``."""
     grange = config.g_max - config.g_min
     dG = grange / (config.levels - 1) if config.levels >= 2 else 0.0
+    # a pulse moves both devices of a two-sided pair (2 dG of G+ - G-), one of a SET-only
+    # pair; the controller counts it as pulse_gain times that (1: exactly 2.0, as before)
+    devices = 1.0 if config.set_only else 2.0
     return build_record(
         CrossbarParams, config, dG=dG, w_max=w_max, g_per_w=grange / w_max,
-        dw_min=2.0 * dG * w_max / grange, dac_step=_step(1.0, config.dac_bits),
-        adc_step=_step(config.adc_bound, config.adc_bits))
+        dw_min=(devices * config.pulse_gain) * dG * w_max / grange,
+        dac_step=_step(1.0, config.dac_bits), adc_step=_step(config.adc_bound, config.adc_bits))
 
 
 def _step(bound: float, bits: int) -> float:
@@ -195,7 +381,20 @@ def _step(bound: float, bits: int) -> float:
 
 FIELD_NAMES = field_names(DeviceConfig)
 _NONNEG = ("dw_min_dtod", "dw_min_std", "up_down_dtod", "prog_noise", "read_noise",
-           "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v")
+           "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v",
+           "c2c_add", "c2c_slope", "write_noise", "bound_dtod_up", "bound_dtod_down",
+           "read_noise_pcm", "rn1f", "rn1f_q0", "rn1f_qmax", "gamma_up", "gamma_down",
+           "nu_lo", "nu_hi", "nu_slo", "nu_shi")
+NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower",
+              "pulse_gain", "step_model", "step_center", "gamma_up", "gamma_down", "exp_a",
+              "exp_b", "exp_a_up", "exp_a_down", "exp_gamma_up", "exp_gamma_down",
+              "pow_gamma", "c2c", "c2c_add", "c2c_slope", "write_noise", "bound_dtod_up",
+              "bound_dtod_down", "read_noise_pcm", "rn1f", "rn1f_q0", "rn1f_qexp",
+              "rn1f_qmax", "rn1f_t_read", "drift_nu_g", "nu_a", "nu_b", "nu_lo", "nu_hi",
+              "nu_sa", "nu_sb", "nu_slo", "nu_shi", "compensation_read", "bound_management",
+              "bm_passes")
+"""The fields added by issue 12. A state saved before them has none in its options: it
+restores with their defaults (every one off), not with its preset's present values."""
 
 
 def _validate(c: DeviceConfig) -> None:
@@ -230,25 +429,67 @@ def _validate(c: DeviceConfig) -> None:
                          "exceeds 1 (allowed: a total fraction <= 1)")
     if not -1.0 < c.up_down < 1.0:
         raise InputError(f"crossbar up_down {c.up_down!r} is not allowed (allowed: -1 < a < 1)")
-    for name in ("adc_bound", "drift_t0", "prog_gref", "w_headroom"):
+    for name in ("refresh_upper", "refresh_lower"):
+        if not 0.0 < getattr(c, name) < 1.0:
+            raise InputError(f"crossbar {name} {getattr(c, name)!r} is not allowed "
+                             "(allowed: a fraction of the range, 0 < f < 1)")
+    lo, hi = (0.0, 1.0) if c.step_model in ("soft", "linear") else (-1.0, 2.0)
+    if not (0.0 <= c.step_center < 1.0 and lo < c.step_center < hi):
+        what = "0 < c < 1" if c.step_model in ("soft", "linear") else "0 <= c < 1"
+        raise InputError(f"crossbar step_center {c.step_center!r} is not allowed with "
+                         f"step_model {c.step_model!r} (allowed: a fraction {what})")
+    if not 1 <= c.bm_passes <= 16:
+        raise InputError(f"crossbar bm_passes {c.bm_passes!r} is not allowed (allowed: 1..16)")
+    for name in ("adc_bound", "drift_t0", "prog_gref", "w_headroom", "pulse_gain",
+                 "pow_gamma", "rn1f_t_read"):
         if getattr(c, name) <= 0:
             raise InputError(f"crossbar {name} {getattr(c, name)!r} is not allowed "
                              "(allowed: a number > 0)")
 
 
+PCM_PULSE_GAIN = 3.2
+"""The pcm preset's controller calibration (``pulse_gain``): the mean SET step of its
+mean device (nominal bounds) from g_min to 90 % of the range, in units of dG: 56 pulses
+take it from 0 to 22.5 uS (``kernels.set_pulses``), 22.5 / 56 / 0.125 = 3.2. With the
+device-to-device spread of the upper bound, ``cml-edge device characterize`` counts more
+(README, issue 12 figures)."""
+
 _DEVICE = dict(update="pulsed", commit="pulse", dac_bits=7, adc_bits=9, adc_bound=12.0,
                w_max_v=0.02)
 
+_PCM_SYMMETRIC = dict(
+    _DEVICE, g_min=0.0, g_max=25.0, levels=201, dw_min_dtod=0.2, dw_min_std=0.6,
+    up_down_dtod=0.05, bounds="soft", prog_noise=1.0, prog_c0=0.26348, prog_c1=1.9650,
+    prog_c2=-1.1731, prog_gref=25.0, out_noise=0.06, drift_nu=0.049, drift_nu_std=0.008,
+    drift_t0=20.0)
+_RERAM_SYMMETRIC = dict(
+    _DEVICE, g_min=50.0, g_max=225.0, levels=1001, dw_min_dtod=0.3, dw_min_std=3.75,
+    up_down_dtod=0.01, bounds="soft", prog_noise=1.0, prog_c0=4.782321,
+    prog_c1=-0.009107 * 225.0, prog_c2=0.0, prog_gref=225.0, read_noise=0.01)
+
 PRESETS: dict[str, dict[str, Any]] = {
     "ideal": {"w_headroom": 4.0},
-    "pcm": dict(_DEVICE, g_min=0.0, g_max=25.0, levels=201, dw_min_dtod=0.2, dw_min_std=0.6,
-                up_down_dtod=0.05, bounds="soft", prog_noise=1.0, prog_c0=0.26348,
-                prog_c1=1.9650, prog_c2=-1.1731, prog_gref=25.0, out_noise=0.06,
-                drift_nu=0.049, drift_nu_std=0.008, drift_t0=20.0),
-    "reram": dict(_DEVICE, g_min=50.0, g_max=225.0, levels=1001, dw_min_dtod=0.3,
-                  dw_min_std=3.75, up_down_dtod=0.01, bounds="soft", prog_noise=1.0,
-                  prog_c0=4.782321, prog_c1=-0.009107 * 225.0, prog_c2=0.0, prog_gref=225.0,
-                  read_noise=0.01),
+    # the full statistical PCM model (module docstring)
+    "pcm": dict(
+        _DEVICE, g_min=0.0, g_max=25.0, levels=201, mapping="one-sided", set_only=True,
+        refresh=True, refresh_upper=0.75, refresh_lower=0.25, pulse_gain=PCM_PULSE_GAIN,
+        step_model="exp", step_center=0.0, exp_a=-1.0, exp_b=0.0, exp_a_up=-27.235,
+        exp_a_down=-2.235, exp_gamma_up=2.5, exp_gamma_down=2.5, dw_min_dtod=0.2,
+        up_down_dtod=0.05, bound_dtod_up=0.1, bound_dtod_down=0.0, dw_min_std=0.6,
+        c2c="complex", c2c_add=0.021, c2c_slope=0.108, prog_noise=1.0, prog_c0=0.26348,
+        prog_c1=1.9650, prog_c2=-1.1731, prog_gref=25.0, out_noise=0.06, drift_nu=0.049,
+        drift_nu_std=0.008, drift_t0=20.0, drift_nu_g=True, rn1f=1.0,
+        drift_compensation=True, compensation_read="periphery", bound_management=True),
+    # asymmetric soft-bounds ReRAM (module docstring)
+    "reram": dict(
+        _DEVICE, g_min=50.0, g_max=225.0, levels=1001, mapping="one-sided",
+        step_model="soft", step_center=0.375, bound_dtod_up=0.24, bound_dtod_down=0.4,
+        dw_min_dtod=0.3, up_down_dtod=0.01, dw_min_std=3.75, c2c="add", write_noise=56.0,
+        prog_noise=1.0, prog_c0=4.782321, prog_c1=-0.009107 * 225.0, prog_c2=0.0,
+        prog_gref=225.0, read_noise=0.01, bound_management=True),
+    # the pcm and reram presets of earlier releases, bit for bit
+    "pcm-symmetric": _PCM_SYMMETRIC,
+    "reram-symmetric": _RERAM_SYMMETRIC,
 }
 
 

@@ -47,6 +47,23 @@ going up, 2 (G - g_min) / (g_max - g_min) going down. Every write clips a device
 [g_min, g_max]; stuck devices never change. Only devices actually pulsed or
 programmed are written (and get write noise); a write restarts the device's drift clock.
 
+Calibrated physics (issue 12; each off at its config default, and then the code paths
+and draws above are exactly those of earlier releases): a ``one-sided`` mapping programs
+one device of a pair to g_min; a ``set_only`` pair sends each pulse to one device, up (G+
+to raise w, G- to lower it), and a ``refresh`` pair that saturates is RESET and its
+difference write-verified onto the larger device; ``step_model`` gives the step's
+dependence on G (:func:`step_factor`) between the device's own bounds ``bnd`` and
+``c2c`` its cycle-to-cycle noise; ``write_noise`` reads a pulsed device as its hidden
+state plus a fresh offset (``wn``); reads add ``read_noise_pcm`` (PCM_READ) per output
+and, with ``bound_management``, repeat a saturated read with halved inputs; ``elapse``
+adds the accumulated read noise (``rn``, one persistent draw per device per call), uses
+the conductance-dependent nu, and compensates drift from calibration reads through the
+periphery. Extra draws come after the existing ones of the same operation: per pulse
+and device, the c2c normal then the write-noise normal; a refresh's programming noise
+after its pair's pulses; at construction, the bounds after the programming noise; in
+``elapse``, the calibration read before, then one normal per device (row by row, G+
+before G-), then the calibration read after.
+
 Randomness: one counter-based stream per array, ``uniform(rng[0], c)`` from
 :mod:`cml_edge.rng` at the counter c = ``rng[1]``, advanced by one per uniform
 drawn. Normal deviates come from those uniforms by the Marsaglia-Tsang ziggurat (256
@@ -62,19 +79,33 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
-from cml_edge.backends.crossbar.config import BOUNDS, COMMITS, UPDATES
+from cml_edge.backends.crossbar.config import (
+    BOUNDS,
+    C2C_MODELS,
+    COMMITS,
+    COMPENSATION_READS,
+    MAPPINGS,
+    STEP_MODELS,
+    UPDATES,
+)
 from cml_edge.rng import uniform, unit, word
 
 # choice codes of the parameter record (the index of the value in the config's choices)
 UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
 COMMIT_PROGRAM, COMMIT_PULSE = COMMITS.index("program"), COMMITS.index("pulse")
 BOUNDS_SOFT = BOUNDS.index("soft")
+ONE_SIDED = MAPPINGS.index("one-sided")
+STEP_BOUNDS, STEP_LINEAR, STEP_SOFT, STEP_EXP, STEP_POW = (
+    STEP_MODELS.index(m) for m in ("bounds", "linear", "soft", "exp", "pow"))
+C2C_MULT, C2C_ADD = C2C_MODELS.index("mult"), C2C_MODELS.index("add")
+COMP_PERIPHERY = COMPENSATION_READS.index("periphery")
 
 # counter indices (names in CrossbarArray.counter_names)
 MATVECS, RMATVECS, ANALOG_MACS, DAC_CONVERSIONS, ADC_CONVERSIONS, ADC_SATURATIONS = 0, 1, 2, 3, 4, 5
 OUTER_UPDATES, ACC_WRITES, LINE_PULSES, COINCIDENCES, DEVICE_PULSES = 6, 7, 8, 9, 10
 DEVICES_WRITTEN, COMMITS, RNG_DRAWS = 11, 12, 13
-N_COUNTERS = 14
+REFRESHES, REFRESH_PULSES, CALIBRATION_READS, BM_REREADS = 14, 15, 16, 17
+N_COUNTERS = 18
 
 # stuck codes
 OK, STUCK_LOW, STUCK_HIGH = 0, 1, 2
@@ -177,7 +208,13 @@ def _convert_inputs(x, xs, n_in, dac):
             xmax = a
     if not xmax > 0.0:
         return xmax, 0, 0.0
-    inv = 1.0 / xmax
+    nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax)
+    return xmax, nnz, sq
+
+
+@njit(cache=True)
+def _quantise_inputs(x, xs, n_in, dac, inv):
+    """xs = DAC(x inv); returns (nonzero inputs, sum xs^2)."""
     if dac > 0.0:
         inv_dac = 1.0 / dac
         for j in range(n_in):
@@ -192,7 +229,7 @@ def _convert_inputs(x, xs, n_in, dac):
         v = xs[j]
         nnz += v != 0.0
         sq += v * v
-    return xmax, nnz, sq
+    return nnz, sq
 
 
 @njit(cache=True)
@@ -257,9 +294,88 @@ def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rn
     return saturated
 
 
+@njit(cache=True)
+def _abs_w_x2(Gp, Gm, xs, buf, transposed, inv_g):
+    """buf_i = sum_j |G+ - G-|_ij / range xs_j^2 (or over the rows, transposed): the
+    variance of the PCM_READ per-read noise over read_noise_pcm^2."""
+    rows, cols = Gp.shape
+    if not transposed:
+        for i in range(rows):
+            buf[i] = 0.0
+        for j in range(cols):
+            v = xs[j] * xs[j]
+            if v != 0.0:
+                for i in range(rows):
+                    buf[i] += abs(Gp[i, j] - Gm[i, j]) * inv_g * v
+        return
+    for o in range(cols):
+        s = 0.0
+        for k in range(rows):
+            s += abs(Gp[k, o] - Gm[k, o]) * inv_g * (xs[k] * xs[k])
+        buf[o] = s
+
+
+@njit(cache=True)
+def _convert_outputs_var(buf, var, out, n_out, g_min, g_max, adc, bound, base, wn, scale,
+                         rng):
+    """:func:`_convert_outputs` with a per-output noise variance base^2 + wn^2 var_o."""
+    inv_g = 1.0 / (g_max - g_min)
+    key = rng[0]
+    ctr = rng[1]
+    b2 = base * base
+    w2 = wn * wn
+    for o in range(n_out):
+        z, ctr = normal_at(key, ctr)
+        buf[o] = buf[o] * inv_g + math.sqrt(b2 + w2 * var[o]) * z
+    rng[1] = ctr
+    saturated = 0
+    if adc > 0.0:
+        inv_adc = 1.0 / adc
+        unit = adc * scale
+        for o in range(n_out):
+            v = buf[o]
+            saturated += abs(v) > bound
+            v = min(max(v, -bound), bound)
+            out[o] = math.copysign(math.floor(abs(v) * inv_adc + 0.5), v) * unit
+    else:
+        for o in range(n_out):
+            out[o] = buf[o] * scale
+    return saturated
+
+
+@njit(cache=True, inline="always")
+def _read_pass(state, out, transposed, n_out, div, nnz, sq):
+    """One analog pass of a read whose inputs (divided by ``div``) are in xbuf: steps 2-5;
+    returns the saturated outputs."""
+    P = state.params
+    _mac(state.Gp, state.Gm, state.xbuf, state.ybuf, transposed)
+    rn = P.read_noise
+    on = P.out_noise
+    sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
+    start = state.rng[1]
+    if P.read_noise_pcm > 0.0:
+        _abs_w_x2(state.Gp, state.Gm, state.xbuf, state.vbuf, transposed,
+                  1.0 / (P.g_max - P.g_min))
+        saturated = _convert_outputs_var(state.ybuf, state.vbuf, out, n_out, P.g_min, P.g_max,
+                                         P.adc_step, P.adc_bound, sigma, P.read_noise_pcm,
+                                         P.w_max * div * state.alpha[0], state.rng)
+    else:
+        saturated = _convert_outputs(state.ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
+                                     P.adc_bound, sigma, P.w_max * div * state.alpha[0],
+                                     state.rng)
+    c = state.counters
+    c[RNG_DRAWS] += np.int64(state.rng[1] - start)
+    c[ANALOG_MACS] += nnz * n_out
+    c[DAC_CONVERSIONS] += nnz
+    c[ADC_CONVERSIONS] += n_out
+    c[ADC_SATURATIONS] += saturated
+    return saturated
+
+
 @njit(cache=True, inline="always")
 def _read(state, x, out, transposed):
-    """out = W x (or W^T x) as the array reads it (module docstring, steps 1-5)."""
+    """out = W x (or W^T x) as the array reads it (module docstring, steps 1-5, and the
+    bound management's re-reads)."""
     P = state.params
     rows, cols = state.Gp.shape
     n_in = rows if transposed else cols
@@ -269,20 +385,16 @@ def _read(state, x, out, transposed):
         for i in range(n_out):
             out[i] = 0.0 if xmax == 0.0 else math.nan
         return
-    _mac(state.Gp, state.Gm, state.xbuf, state.ybuf, transposed)
-    rn = P.read_noise
-    on = P.out_noise
-    sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
-    start = state.rng[1]
-    saturated = _convert_outputs(state.ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
-                                 P.adc_bound, sigma, P.w_max * xmax * state.alpha[0],
-                                 state.rng)
-    c = state.counters
-    c[RNG_DRAWS] += np.int64(state.rng[1] - start)
-    c[ANALOG_MACS] += nnz * n_out
-    c[DAC_CONVERSIONS] += nnz
-    c[ADC_CONVERSIONS] += n_out
-    c[ADC_SATURATIONS] += saturated
+    saturated = _read_pass(state, out, transposed, n_out, xmax, nnz, sq)
+    if P.bound_management != 0 and saturated > 0:
+        div = xmax
+        passes = 1
+        while saturated > 0 and passes < P.bm_passes:
+            div = div * 2.0  # the input halved again (aihwkit ITERATIVE)
+            passes += 1
+            nnz, sq = _quantise_inputs(x, state.xbuf, n_in, P.dac_step, 1.0 / div)
+            saturated = _read_pass(state, out, transposed, n_out, div, nnz, sq)
+            state.counters[BM_REREADS] += 1
 
 
 @njit(cache=True, inline="always")
@@ -307,7 +419,8 @@ def xbar_sigmoid(state, z, out):
 # writes --------------------------------------------------------------------------------
 @njit(cache=True)
 def _move(g, up, s, z, P):
-    """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)."""
+    """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
+    (step_model ``bounds``, the model of earlier releases)."""
     g_min = P.g_min
     g_max = P.g_max
     d = P.dG * s * (1.0 + P.dw_min_std * z)
@@ -316,35 +429,229 @@ def _move(g, up, s, z, P):
             d *= 2.0 * (g_max - g) / (g_max - g_min)
         else:
             d *= 2.0 * (g - g_min) / (g_max - g_min)
+    if P.set_only and d < 0.0:  # a SET pulse never lowers G
+        d = 0.0
     g = g + d if up else g - d
     return min(max(g, g_min), g_max)
 
 
 @njit(cache=True)
-def _pulse_pair(Gp, Gm, step, age, stuck, P, i, j, n, positive, key, ctr):
-    """n pulses on pair (i, j): positive raises G+ and lowers G-, else the reverse."""
-    noisy = P.dw_min_std != 0.0
-    for _ in range(n):
-        for d in range(2):
-            up = positive if d == 0 else not positive
-            z = 0.0
-            if noisy:
-                z, ctr = normal_at(key, ctr)
-            if stuck[d, i, j] != OK:
-                continue
-            s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
-            if d == 0:
-                Gp[i, j] = _move(Gp[i, j], up, s, z, P)
-            else:
-                Gm[i, j] = _move(Gm[i, j], up, s, z, P)
-    age[0, i, j] = 0.0
-    age[1, i, j] = 0.0
+def step_factor(g, up, lo, hi, P):
+    """The mean step of one pulse at conductance g, in units of the device's nominal step
+    s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
+    lo / hi the device's bounds); never negative."""
+    m = P.step_model
+    span = hi - lo
+    if not span > 0.0:
+        return 0.0
+    g0 = lo + P.step_center * span
+    if m in (STEP_LINEAR, STEP_SOFT):
+        if up:
+            f = 1.0 - (P.gamma_up if m == STEP_LINEAR else 1.0) * (g - g0) / (hi - g0)
+        else:
+            f = 1.0 - (P.gamma_down if m == STEP_LINEAR else 1.0) * (g - g0) / (lo - g0)
+    elif m == STEP_EXP:
+        zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if up:
+            f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * zz)
+        else:
+            f = 1.0 - P.exp_a_down * math.exp(-P.exp_gamma_down * zz)
+    elif m == STEP_POW:
+        r = (hi - g) / span if up else (g - lo) / span
+        f = r ** P.pow_gamma if r > 0.0 else 0.0
+    elif P.bounds == BOUNDS_SOFT:
+        f = 2.0 * (P.g_max - g) / (P.g_max - P.g_min) if up else \
+            2.0 * (g - P.g_min) / (P.g_max - P.g_min)
+    else:
+        f = 1.0
+    return max(f, 0.0)
+
+
+@njit(cache=True)
+def _move_model(g, up, s, z, lo, hi, P):
+    """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
+    (module docstring), clipped to its bounds [lo, hi]."""
+    dG = P.dG
+    f = step_factor(g, up, lo, hi, P)
+    step = dG * s * f
+    c = P.c2c
+    if c == C2C_MULT:
+        sd = P.dw_min_std * step
+    elif c == C2C_ADD:
+        sd = P.dw_min_std * dG * s
+    else:
+        g0 = lo + P.step_center * (hi - lo)
+        sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
+                             + P.c2c_slope * abs(g - g0))
+    if P.set_only:
+        # a SET pulse never lowers G: the step is log-normal with the model's mean and std
+        d = 0.0
+        if step > 0.0:
+            cv = sd / step
+            v = math.log1p(cv * cv)
+            d = step * math.exp(math.sqrt(v) * z - 0.5 * v)
+    else:
+        d = step + sd * z
+    g = g + d if up else g - d
+    return min(max(g, lo), hi)
+
+
+@njit(cache=True)
+def _pulse_device(state, G, d, i, j, up, z, w):
+    """Device d of pair (i, j), at apparent conductance G, after one pulse; with write
+    noise, the pulse moves the hidden state G - wn and a fresh offset w write_noise dG
+    is read on top of it."""
+    P = state.params
+    s = state.step[2 * d, i, j] if up else state.step[2 * d + 1, i, j]
+    h = G - state.wn[d, i, j] if P.write_noise > 0.0 else G
+    if P.step_model == STEP_BOUNDS:
+        h = _move(h, up, s, z, P)
+    else:
+        h = _move_model(h, up, s, z, state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j], P)
+    if P.write_noise > 0.0:
+        G = min(max(h + P.write_noise * P.dG * w, P.g_min), P.g_max)
+        state.wn[d, i, j] = G - h
+        return G
+    return h
+
+
+@njit(cache=True)
+def nu_of(g, z, P):
+    """The drift exponent of a device written to g with fixed normal z (``drift_nu_g``)."""
+    lg = math.log(max(abs(g / P.g_max), 1e-7))
+    mu = min(max(P.nu_a * lg + P.nu_b, P.nu_lo), P.nu_hi)
+    sd = min(max(P.nu_sa * lg + P.nu_sb, P.nu_slo), P.nu_shi)
+    return abs(mu + sd * z)
+
+
+@njit(cache=True, inline="always")
+def _written(state, d, i, j, g):
+    """Bookkeeping of a write of device d of pair (i, j) to g: its drift clock restarts,
+    its accumulated read noise is gone, its drift exponent follows g (``drift_nu_g``)."""
+    P = state.params
+    state.age[d, i, j] = 0.0
+    if P.rn1f > 0.0:
+        state.rn[d, i, j] = 0.0
+    if P.drift_nu_g != 0:
+        state.nu[d, i, j] = nu_of(g, state.nu_z[d, i, j], P)
+
+
+@njit(cache=True)
+def set_pulses(target, P):
+    """SET pulses the mean device (s = 1, no noise, nominal bounds) needs from g_min to
+    ``target``: what a refresh's write-verify costs (at most 100,000)."""
+    if not P.dG > 0.0:
+        return 0
+    g = P.g_min
+    n = 0
+    while g < target and n < 100000:
+        g2 = min(g + P.dG * step_factor(g, True, P.g_min, P.g_max, P), P.g_max)
+        n += 1
+        if not g2 > g:
+            break
+        g = g2
+    return n
+
+
+@njit(cache=True)
+def _refresh_pair(state, i, j, key, ctr):
+    """Refresh pair (i, j) if it is saturated (``refresh``): RESET both devices, then
+    write-verify the pair's difference onto the device that was larger."""
+    P = state.params
+    Gp = state.Gp
+    Gm = state.Gm
+    rng = P.g_max - P.g_min
+    up_ = (Gp[i, j] - P.g_min) / rng
+    um = (Gm[i, j] - P.g_min) / rng
+    big = max(up_, um)
+    small = min(up_, um)
+    if not (big > P.refresh_upper and small > P.refresh_lower):
+        return ctr
+    diff = Gp[i, j] - Gm[i, j]
+    pulses = 2  # the two RESETs
+    for d in range(2):
+        target = P.g_min
+        if d == 0 and diff > 0.0:
+            target = P.g_min + diff
+        elif d == 1 and diff < 0.0:
+            target = P.g_min - diff
+        if state.stuck[d, i, j] != OK:
+            continue
+        G, ctr = _program_device(target, 0.0, P, key, ctr, state.bnd[2 * d, i, j],
+                                 state.bnd[2 * d + 1, i, j])
+        if target > P.g_min:
+            pulses += set_pulses(target, P)
+        if d == 0:
+            Gp[i, j] = G
+        else:
+            Gm[i, j] = G
+        state.wn[d, i, j] = 0.0
+        _written(state, d, i, j, target)
+    state.counters[REFRESHES] += 1
+    state.counters[REFRESH_PULSES] += pulses
     return ctr
 
 
 @njit(cache=True)
-def _program_device(G, delta, P, key, ctr):
-    """Write-verify a device to the level nearest G + delta, with programming noise."""
+def _pulse_pair(state, i, j, n, positive, key, ctr):
+    """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
+    pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
+    G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
+    then the write-noise normal (if ``write_noise``); a refresh then draws its
+    programming noise."""
+    P = state.params
+    Gp = state.Gp
+    Gm = state.Gm
+    stuck = state.stuck
+    noisy = P.dw_min_std != 0.0
+    if P.step_model == STEP_BOUNDS and not P.set_only and P.write_noise == 0.0:
+        # the pulse loop of earlier releases, draw for draw
+        step = state.step
+        for _ in range(n):
+            for d in range(2):
+                up = positive if d == 0 else not positive
+                z = 0.0
+                if noisy:
+                    z, ctr = normal_at(key, ctr)
+                if stuck[d, i, j] != OK:
+                    continue
+                s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
+                if d == 0:
+                    Gp[i, j] = _move(Gp[i, j], up, s, z, P)
+                else:
+                    Gm[i, j] = _move(Gm[i, j], up, s, z, P)
+        _written(state, 0, i, j, Gp[i, j])
+        _written(state, 1, i, j, Gm[i, j])
+    else:
+        wnoisy = P.write_noise > 0.0
+        first = 0 if (positive or not P.set_only) else 1
+        last = 1 if (not positive or not P.set_only) else 0
+        for _ in range(n):
+            for d in range(first, last + 1):
+                up = True if P.set_only else (positive if d == 0 else not positive)
+                z = 0.0
+                w = 0.0
+                if noisy:
+                    z, ctr = normal_at(key, ctr)
+                if wnoisy:
+                    w, ctr = normal_at(key, ctr)
+                if stuck[d, i, j] != OK:
+                    continue
+                if d == 0:
+                    Gp[i, j] = _pulse_device(state, Gp[i, j], 0, i, j, up, z, w)
+                else:
+                    Gm[i, j] = _pulse_device(state, Gm[i, j], 1, i, j, up, z, w)
+        for d in range(first, last + 1):
+            _written(state, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
+    if P.refresh != 0:
+        ctr = _refresh_pair(state, i, j, key, ctr)
+    return ctr
+
+
+@njit(cache=True)
+def _program_device(G, delta, P, key, ctr, lo, hi):
+    """Write-verify a device to the level nearest G + delta, with programming noise,
+    within its bounds [lo, hi] (g_min / g_max unless ``bound_dtod_*``)."""
     g_min = P.g_min
     g_max = P.g_max
     target = snap_to_level(G + delta, g_min, g_max, P.dG)
@@ -357,7 +664,7 @@ def _program_device(G, delta, P, key, ctr):
             target = g_min
         elif target > g_max:
             target = g_max
-    return target, ctr
+    return min(max(target, lo), hi), ctr
 
 
 @njit(cache=True)
@@ -408,19 +715,20 @@ def _pulsed_update(state, post, pre, lr):
             if n:
                 coincidences += n
                 pairs += 1
-                ctr = _pulse_pair(Gp, state.Gm, state.step, state.age, state.stuck, P, i, j, n,
-                                  (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
+                ctr = _pulse_pair(state, i, j, n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
     state.rng[1] = ctr
+    per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
     c[RNG_DRAWS] += np.int64(ctr - start)
     c[LINE_PULSES] += line_pulses
     c[COINCIDENCES] += coincidences
-    c[DEVICE_PULSES] += 2 * coincidences
-    c[DEVICES_WRITTEN] += 2 * pairs
+    c[DEVICE_PULSES] += per_pair * coincidences
+    c[DEVICES_WRITTEN] += per_pair * pairs
 
 
 @njit(cache=True)
 def _analog_update(state, post, pre, lr):
-    """The exact change (an ideal device), stochastically rounded to the grid if any."""
+    """The exact change (an ideal device), stochastically rounded to the grid if any. A
+    SET-only pair puts the whole change on G+ (raising w) or G- (lowering it)."""
     Gp = state.Gp
     Gm = state.Gm
     P = state.params
@@ -428,7 +736,8 @@ def _analog_update(state, post, pre, lr):
     g_min = P.g_min
     g_max = P.g_max
     dG = P.dG
-    half = 0.5 * P.g_per_w
+    set_only = P.set_only != 0
+    half = P.g_per_w if set_only else 0.5 * P.g_per_w
     stuck = state.stuck
     key = state.rng[0]
     ctr = state.rng[1]
@@ -447,12 +756,22 @@ def _analog_update(state, post, pre, lr):
                 ctr += _ONE
                 if d == 0.0:
                     continue
+            if set_only:
+                k = 0 if d > 0.0 else 1
+                if stuck[k, i, j] == OK:
+                    if k == 0:
+                        Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
+                    else:
+                        Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
+                _written(state, k, i, j, Gp[i, j] if k == 0 else Gm[i, j])
+                written += 1
+                continue
             if stuck[0, i, j] == OK:
                 Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
             if stuck[1, i, j] == OK:
                 Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
-            state.age[0, i, j] = 0.0
-            state.age[1, i, j] = 0.0
+            _written(state, 0, i, j, Gp[i, j])
+            _written(state, 1, i, j, Gm[i, j])
             written += 2
     state.rng[1] = ctr
     state.counters[RNG_DRAWS] += np.int64(ctr - start)
@@ -488,11 +807,14 @@ def _commit(state):
     acc = state.acc
     P = state.params
     stuck = state.stuck
+    bnd = state.bnd
     rows, cols = Gp.shape
     dw_min = P.dw_min
     dG = P.dG
     half = 0.5 * P.g_per_w
     pulse = P.commit == COMMIT_PULSE
+    one_sided = P.mapping == ONE_SIDED
+    per_pair = 1 if P.set_only else 2
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
@@ -513,18 +835,29 @@ def _commit(state):
             else:
                 acc[i, j] = 0.0
                 delta = a * half
-            written += 2
             if pulse:
-                pulses += 2 * abs(n)
-                ctr = _pulse_pair(Gp, Gm, state.step, state.age, state.stuck, P, i, j, abs(n),
-                                  n > 0, key, ctr)
+                written += per_pair
+                pulses += per_pair * abs(n)
+                ctr = _pulse_pair(state, i, j, abs(n), n > 0, key, ctr)
                 continue
+            written += 2
+            tp = Gp[i, j] + delta
+            tm = Gm[i, j] - delta
+            if one_sided:  # retarget both devices from the weight they hold
+                w = (Gp[i, j] - Gm[i, j]) / P.g_per_w + (n * dw_min if dG > 0.0 else a)
+                w = min(max(w, -P.w_max), P.w_max)
+                tp = P.g_min + max(w, 0.0) * P.g_per_w
+                tm = P.g_min + max(-w, 0.0) * P.g_per_w
             if stuck[0, i, j] == OK:
-                Gp[i, j], ctr = _program_device(Gp[i, j], delta, P, key, ctr)
+                Gp[i, j], ctr = _program_device(tp, 0.0, P, key, ctr, bnd[0, i, j],
+                                                bnd[1, i, j])
+                state.wn[0, i, j] = 0.0
             if stuck[1, i, j] == OK:
-                Gm[i, j], ctr = _program_device(Gm[i, j], -delta, P, key, ctr)
-            state.age[0, i, j] = 0.0
-            state.age[1, i, j] = 0.0
+                Gm[i, j], ctr = _program_device(tm, 0.0, P, key, ctr, bnd[2, i, j],
+                                                bnd[3, i, j])
+                state.wn[1, i, j] = 0.0
+            _written(state, 0, i, j, tp)
+            _written(state, 1, i, j, tm)
     state.rng[1] = ctr
     c = state.counters
     c[RNG_DRAWS] += np.int64(ctr - start)
@@ -548,9 +881,11 @@ def xbar_program(state, W):
     whatever the parameters, so that sweeps compare the same devices: a uniform per
     device for stuck-at faults (stuck low if u < f_low, high if u < f_low + f_high);
     two normals per device for its pulse-step scale (1 + dtod z1, clipped at 0) and
-    asymmetry (up_down + up_down_dtod z2); one normal per device for nu (clipped at 0);
-    one normal per device for the programming noise. Devices are visited row by row,
-    G+ before G-.
+    asymmetry (up_down + up_down_dtod z2); one normal per device for nu (clipped at 0;
+    kept as ``nu_z`` for ``drift_nu_g``); one normal per device for the programming
+    noise. Devices are visited row by row, G+ before G-. Then, only when a bound spread
+    is configured (``bound_dtod_up`` or ``_down`` > 0), two normals per device for its
+    upper and lower bound, which clip it.
     """
     Gp = state.Gp
     Gm = state.Gm
@@ -581,17 +916,24 @@ def xbar_program(state, W):
             for d in range(2):
                 z, ctr = normal_at(key, ctr)
                 state.nu[d, i, j] = max(P.drift_nu + P.drift_nu_std * z, 0.0)
+                state.nu_z[d, i, j] = z
     g_min = P.g_min
     g_max = P.g_max
     g_c = 0.5 * (g_min + g_max)
     half = 0.5 * P.g_per_w
     w_max = P.w_max
+    one_sided = P.mapping == ONE_SIDED
     for i in range(rows):
         for j in range(cols):
             w = min(max(W[i, j], -w_max), w_max)
             for d in range(2):
-                G = snap_to_level(g_c + w * half if d == 0 else g_c - w * half, g_min, g_max,
-                                  P.dG)
+                if one_sided:
+                    t = g_min + max(w if d == 0 else -w, 0.0) * P.g_per_w
+                else:
+                    t = g_c + w * half if d == 0 else g_c - w * half
+                G = snap_to_level(t, g_min, g_max, P.dG)
+                if P.drift_nu_g != 0:  # from the target, as aihwkit draws it
+                    state.nu[d, i, j] = nu_of(G, state.nu_z[d, i, j], P)
                 z, ctr = normal_at(key, ctr)
                 G += z * prog_sigma(G, P.prog_noise, P.prog_c0, P.prog_c1, P.prog_c2,
                                     P.prog_gref, g_max)
@@ -606,8 +948,49 @@ def xbar_program(state, W):
                 else:
                     Gm[i, j] = G
                 state.age[d, i, j] = 0.0
+                state.bnd[2 * d, i, j] = g_min
+                state.bnd[2 * d + 1, i, j] = g_max
+    if P.bound_dtod_up > 0.0 or P.bound_dtod_down > 0.0:
+        g0 = g_min + P.step_center * (g_max - g_min)
+        for i in range(rows):
+            for j in range(cols):
+                for d in range(2):
+                    zu, ctr = normal_at(key, ctr)
+                    zl, ctr = normal_at(key, ctr)
+                    ru = min(max(abs(1.0 + P.bound_dtod_up * zu), 1e-3), 1.0)
+                    rl = min(max(abs(1.0 + P.bound_dtod_down * zl), 1e-3), 1.0)
+                    b_lo = g0 - (g0 - g_min) * rl
+                    b_hi = g0 + (g_max - g0) * ru
+                    state.bnd[2 * d, i, j] = b_lo
+                    state.bnd[2 * d + 1, i, j] = b_hi
+                    if state.stuck[d, i, j] != OK:
+                        continue
+                    if d == 0:
+                        Gp[i, j] = min(max(Gp[i, j], b_lo), b_hi)
+                    else:
+                        Gm[i, j] = min(max(Gm[i, j], b_lo), b_hi)
     state.rng[1] = ctr
     return np.int64(ctr - start)
+
+
+@njit(cache=True)
+def _calibration_readout(state):
+    """The drift-compensation readout through the periphery (aihwkit
+    ``GlobalDriftCompensation``): one read per input line with a one-hot input, the mean
+    |output| over all of them (at least 1e-4)."""
+    rows, cols = state.Gp.shape
+    x = state.sbuf[:cols]
+    out = state.sbuf[cols:cols + rows]
+    total = 0.0
+    for j in range(cols):
+        for k in range(cols):
+            x[k] = 0.0
+        x[j] = 1.0
+        _read(state, x, out, False)
+        for i in range(rows):
+            total += abs(out[i])
+    state.counters[CALIBRATION_READS] += cols
+    return max(total / (rows * cols), 1e-4)
 
 
 @njit(cache=True)
@@ -615,18 +998,31 @@ def xbar_elapse(state, seconds):
     """Let ``seconds`` pass: each unstuck device drifts from its age a to a + seconds,
     G <- G ((a + seconds + t0) / (a + t0))^-nu (= G0 ((t + t0) / t0)^-nu since its last
     write), clipped at g_min; with compensation, alpha *= calibration read before /
-    after (the read is sum |G+ - G-|, i.e. the array's response to a calibration input,
-    taken noise-free)."""
-    if not seconds > 0.0:
+    after (``compensation_read`` ideal: the read is sum |G+ - G-|, the array's response
+    to a calibration input, taken noise-free; periphery: :func:`_calibration_readout`).
+
+    With accumulated read noise (``rn1f``; also at 0 s), each device's previous draw is
+    taken off first, and after the drift one normal per device (row by row, G+ before
+    G-, after the calibration read before) gives the new persistent draw."""
+    P = state.params
+    fresh = P.rn1f > 0.0
+    if not (seconds > 0.0 or (fresh and seconds == 0.0)):
         return
     Gp = state.Gp
     Gm = state.Gm
-    P = state.params
     rows, cols = Gp.shape
     t0 = P.drift_t0
     g_min = P.g_min
+    periphery = P.drift_compensation != 0 and P.compensation_read == COMP_PERIPHERY
     before = 0.0
     after = 0.0
+    cal_before = 0.0
+    if periphery:
+        cal_before = _calibration_readout(state)
+    key = state.rng[0]
+    ctr = state.rng[1]
+    start = ctr
+    t_read = P.rn1f_t_read
     for i in range(rows):
         for j in range(cols):
             before += abs(Gp[i, j] - Gm[i, j])
@@ -635,12 +1031,30 @@ def xbar_elapse(state, seconds):
                 state.age[d, i, j] = a + seconds
                 if state.stuck[d, i, j] != OK:
                     continue
+                G = Gp[i, j] if d == 0 else Gm[i, j]
+                if fresh:
+                    G = G - state.rn[d, i, j]
                 f = ((a + seconds + t0) / (a + t0)) ** (-state.nu[d, i, j])
+                G = max(G * f, g_min)
+                if fresh:  # q_s of the conductance as written, the std of the drifted one
+                    t = a + seconds + t0
+                    g_prog = G * (t / t0) ** state.nu[d, i, j]
+                    q = min(P.rn1f_q0 / max((abs(g_prog) / P.g_max) ** P.rn1f_qexp, 1e-3),
+                            P.rn1f_qmax)
+                    sig = P.rn1f * q * math.sqrt(math.log((t + t_read) / (2.0 * t_read)))
+                    z, ctr = normal_at(key, ctr)
+                    Gn = max(G + abs(G) * sig * z, g_min)
+                    state.rn[d, i, j] = Gn - G
+                    G = Gn
                 if d == 0:
-                    Gp[i, j] = max(Gp[i, j] * f, g_min)
+                    Gp[i, j] = G
                 else:
-                    Gm[i, j] = max(Gm[i, j] * f, g_min)
+                    Gm[i, j] = G
             after += abs(Gp[i, j] - Gm[i, j])
-    if P.drift_compensation != 0 and after > 0.0:
+    state.rng[1] = ctr
+    state.counters[RNG_DRAWS] += np.int64(ctr - start)
+    if periphery:
+        state.alpha[0] *= cal_before / _calibration_readout(state)
+    elif P.drift_compensation != 0 and after > 0.0:
         state.alpha[0] *= before / after
     state.elapsed[0] += seconds
