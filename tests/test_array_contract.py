@@ -224,24 +224,25 @@ def state_equal(a, b) -> bool:
 
 
 # the update --------------------------------------------------------------------------------
-# Devices calibrated to the references (issue 12) that do not follow the rule this closely,
-# and what was measured for them (tests/test_crossbar.py checks their step models): the
-# SET-only PCM's exponential steps are up to 9x the controller's full-range calibration
-# where one-sided weights sit (projection 2.6-2.9); the ReRAM's write noise (56 dG per
-# pulse) and additive cycle-to-cycle noise (3.75 dG) decorrelate a 20-update burst
-# (correlation 0.55-0.70). Strict: if one of them starts to pass, this list is wrong.
-DEVIATES_FROM_RULE = {("crossbar", "pcm"): "projection 2.6-2.9 (ExpStep steps, one-sided)",
-                      ("crossbar", "reram"): "correlation 0.55-0.70 (write and c2c noise)"}
+# How closely a 20-update burst follows the rule: (least correlation, projection range). Most
+# devices follow it to within their step (0.8, 0.6..1.4). The crossbar presets calibrated to
+# the references (issue 12) do not, by their physics, and their bounds are what was measured
+# (`tests/test_crossbar.py` checks their step models; the CML's results are in the README):
+# the SET-only PCM's exponential steps near g_min, where one-sided weights sit, are larger
+# than the controller's full-range calibration assumes, so its weights move 2.6-2.9x as far
+# as the rule asks (correlation 0.89-0.93); the ReRAM's write noise (56 dG per pulse) and
+# additive cycle-to-cycle noise (3.75 dG) decorrelate the burst (correlation 0.55-0.70,
+# projection 0.53-0.72). An update that does nothing, or goes the wrong way, fails all of them.
+RULE_FIDELITY = {("crossbar", "pcm"): (0.8, (2.0, 3.5)),
+                 ("crossbar", "reram"): (0.4, (0.3, 1.0))}
 
 
 @pytest.mark.parametrize("defer", [False, True])
 @pytest.mark.parametrize("shape", SHAPES)
-def test_update_follows_the_local_rule(case, shape, defer, request):
+def test_update_follows_the_local_rule(case, shape, defer):
     """K updates of lr post pre^T, at most 0.25 per cell in all: the weights' change
-    correlates with the rule's (> 0.8) and has its size (projection 0.6..1.4)."""
-    reason = DEVIATES_FROM_RULE.get((case[0], case[1].get("preset")))
-    if reason is not None:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
+    correlates with the rule's and has its size (``RULE_FIDELITY``)."""
+    least, (lo, hi) = RULE_FIDELITY.get((case[0], case[1].get("preset")), (0.8, (0.6, 1.4)))
     arr = new(case, initial(shape))
     post, pre = factors(shape)
     K = 20
@@ -256,8 +257,8 @@ def test_update_follows_the_local_rule(case, shape, defer, request):
     assert arr.state[0] is buffer  # in place
     change = (arr.to_float() - before).ravel()
     rule = (K * lr * np.outer(post, pre)).ravel()
-    assert np.corrcoef(change, rule)[0, 1] > 0.8
-    assert 0.6 < change @ rule / (rule @ rule) < 1.4
+    assert np.corrcoef(change, rule)[0, 1] > least
+    assert lo < change @ rule / (rule @ rule) < hi
 
 
 @pytest.mark.parametrize("defer", [False, True])
