@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 
@@ -55,18 +54,3 @@ def prog_sigma(G, scale, c0, c1, c2, g_ref, g_max):
     if s < 0.0:
         return 0.0
     return scale * s * g_max / g_ref
-
-
-def weights_to_pair(W: np.ndarray, g_min: float, g_max: float,
-                    w_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """(G+, G-) of the balanced map for W clipped to [-w_max, w_max] (no grid, no noise)."""
-    g_c = 0.5 * (g_min + g_max)
-    half = 0.5 * (g_max - g_min) / w_max
-    w = np.clip(np.asarray(W, dtype=np.float64), -w_max, w_max)
-    return g_c + w * half, g_c - w * half
-
-
-def pair_to_weights(Gp: np.ndarray, Gm: np.ndarray, g_min: float, g_max: float,
-                    w_max: float) -> np.ndarray:
-    """W = (G+ - G-) / g_per_w."""
-    return (np.asarray(Gp) - np.asarray(Gm)) * (w_max / (g_max - g_min))
