@@ -1,6 +1,7 @@
 """Speed of the training and planning loops (``cml-edge bench``): figures, not assertions.
 
-Each figure is the median over ``repeats`` timed runs after a compiling warm-up run:
+Each figure is the median over ``repeats`` timed runs after a compiling warm-up run, in
+microseconds per step:
 
 - ``train_step_us_random`` / ``train_step_us_mixed``: one training step (exploration
   and the local rule) of the direct compiled loop, averaged over the paper's whole
@@ -8,6 +9,13 @@ Each figure is the median over ``repeats`` timed runs after a compiling warm-up 
 - ``plan_step_us``: one planning step of the direct loop, over the protocol's 100 pairs;
 - for the float64 array also ``train_step_us_factored``, ``plan_step_us_factored`` and
   ``train_total_s_factored`` (the whole 100 x 900 training).
+
+A backend name may carry a preset, ``crossbar:reram`` (``presets=True`` benches every
+preset of a backend that takes one). Every run also times the yardstick
+(:mod:`cml_edge.bench_fused`: the float64 step hand-fused into a plain Numba function,
+bit-identical to the direct path) and gives, measured in the same run, the ``ratios``:
+float64 direct / fused (goal 1.3), factored / fused factored (goal 1.1), and each other
+backend's direct path / float64 direct, per training and per planning step (goal 2).
 
 ``--robot SIM ...`` adds the wheeled robot (issue 8): simulated ``train_actions_per_s``
 (random walks with the local rule, heading-aware CML, float64) and ``plan_actions_per_s``
@@ -21,16 +29,65 @@ from __future__ import annotations
 import statistics
 import time
 from collections.abc import Callable, Sequence
+from typing import Any
 
-from cml_edge.core.cml import CML
+import numpy as np
+
+from cml_edge.backends import backend_spec
+from cml_edge.bench_fused import FusedLearner, FusedScorer, fused_factored_of
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.step import FactoredScorer, SeamScorer
+from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Training, default_path, train_and_evaluate
+from cml_edge.grid.exploration import GridExplorer
 from cml_edge.grid.metrics import draw_pairs
-from cml_edge.grid.planning import plan
-from cml_edge.grid.training import TrainConfig
+from cml_edge.grid.planning import WTA, PlanResult, plan_loop
+from cml_edge.grid.training import (
+    FactoredLearner,
+    SeamLearner,
+    TrainConfig,
+    train,
+    train_loop,
+)
 from cml_edge.protocol import EVAL_SEED
 
 WALKS, STEPS = 100, 900
+GOALS = {"direct": 1.3, "factored": 1.1, "device": 2.0}
+"""The issue's goals for the ratios (module docstring)."""
+
+LEARNERS: dict[str, Callable[[CML, int], Any]] = {
+    "direct": lambda cml, size: SeamLearner.of(cml, True),
+    "factored": lambda cml, size: FactoredLearner.of(cml, size),
+    "fused": lambda cml, size: FusedLearner.of(cml),
+    "fused_factored": fused_factored_of,
+}
+SCORERS: dict[str, Callable[[CML], Any]] = {
+    "direct": SeamScorer.of, "factored": FactoredScorer.of, "fused": FusedScorer.of}
+
+
+def parse_name(name: str) -> tuple[str, dict[str, Any]]:
+    """``backend`` or ``backend:preset`` -> (backend, options); InputError if unknown."""
+    backend, _, preset = name.partition(":")
+    spec = backend_spec(backend)
+    if not preset:
+        return backend, {}
+    presets = spec.device.presets if spec.device.default_preset(backend) else {}
+    if preset not in presets:
+        raise InputError(f"unknown preset {preset!r} for {backend!r}; allowed: "
+                         f"{', '.join(presets) or 'none (it takes no preset)'}")
+    return backend, {"preset": preset}
+
+
+def expand_presets(names: Sequence[str]) -> list[str]:
+    """Each name that takes a preset and names none becomes one name per preset."""
+    out = []
+    for name in names:
+        spec = backend_spec(name.partition(":")[0])
+        if ":" in name or spec.device.default_preset(name) is None:
+            out.append(name)
+        else:
+            out.extend(f"{name}:{p}" for p in spec.device.presets)
+    return out
 
 
 def _median_time(run: Callable[[int], float], repeats: int) -> float:
@@ -38,52 +95,115 @@ def _median_time(run: Callable[[int], float], repeats: int) -> float:
     return statistics.median(run(r) for r in range(repeats))
 
 
-def bench_backend(name: str, repeats: int = 5) -> dict[str, float]:
-    """The figures of one backend (see the module docstring)."""
+def _model(arena: GridArena, backend: str, options: dict[str, Any], seed: int) -> CML:
+    return CML.create(CMLConfig.for_arena(arena.size), backend, seed, **options)
+
+
+def time_train(arena: GridArena, config: TrainConfig, seed: int, backend: str,
+               options: dict[str, Any], learner: str) -> float:
+    """Seconds per step of one compiled training from a fresh model of ``seed``."""
+    cml = _model(arena, backend, options, seed)
+    plug = LEARNERS[learner](cml, arena.size)
+    explorer = GridExplorer.of(arena, config, seed)
+    errors = np.zeros(config.walks)
+    c = cml.config
+    t0 = time.perf_counter()
+    train_loop(plug, explorer, c.obs_origin, c.obs_scale, 0, config.walks, config.steps, errors)
+    return (time.perf_counter() - t0) / (config.walks * config.steps)
+
+
+def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
+              scorer: str) -> float:
+    """Seconds per step of the paper's planner over the pairs, on the ``scorer`` path."""
+    n = len(starts)
+    res = PlanResult(np.zeros((n, 2), np.int64), np.zeros(n, np.int64),
+                     np.full((n, 101, 2), -1, np.int64))
+    plug = SCORERS[scorer](cml)
+    c = cml.config
+    t0 = time.perf_counter()
+    plan_loop(plug, WTA(), arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
+              False, starts, goals, 100, res)
+    return (time.perf_counter() - t0) / max(int(res.steps.sum()), 1)
+
+
+def bench_backend(name: str, repeats: int = 5, paths: Sequence[str] | None = None
+                  ) -> dict[str, float]:
+    """The figures of one backend name (see the module docstring); ``paths`` defaults to
+    the direct path, and the factored one where the arrays support it."""
+    backend, options = parse_name(name)
     arena = GridArena.empty(30)
     pairs = draw_pairs(arena, 100, EVAL_SEED)
-    full = {e: TrainConfig(WALKS, STEPS, e) for e in ("random", "mixed")}
-    warm = {e: TrainConfig(1, 50, e) for e in ("random", "mixed")}
+    starts = np.ascontiguousarray(pairs.starts, dtype=np.int64)
+    goals = np.ascontiguousarray(pairs.goals, dtype=np.int64)
+    model = _model(arena, backend, options, 0)
+    if paths is None:
+        factored = all(getattr(a, "supports_factored", False) for a in model.arrays)
+        paths = ("direct", "factored") if factored else ("direct",)
     out: dict[str, float] = {}
-    paths = ["direct"]  # the path device arrays emulate, and the one default_path adds
-    if (extra := default_path(name)) not in paths:
-        paths.append(extra)
     for path in paths:
         suffix = "" if path == "direct" else f"_{path}"
-        explores = ("random", "mixed") if path == "direct" else ("random",)
-        for explore in explores:
+        for explore in ("random", "mixed") if path == "direct" else ("random",):
             def run_train(r: int, explore: str = explore, path: str = path) -> float:
-                config = warm[explore] if r < 0 else full[explore]
-                run = train_and_evaluate(max(r, 0), Training(arena, config, backend=name,
-                                                             path=path, epoch=config.walks))
-                return run.wall_s[-1] / (config.walks * config.steps)
+                config = TrainConfig(1, 50, explore) if r < 0 else TrainConfig(WALKS, STEPS,
+                                                                               explore)
+                return time_train(arena, config, max(r, 0), backend, options, path)
 
             key = f"train_step_us_{explore}" if path == "direct" else f"train_step_us{suffix}"
             per_step = _median_time(run_train, repeats)
             out[key] = per_step * 1e6
             if path != "direct":
                 out[f"train_total_s{suffix}"] = per_step * WALKS * STEPS
-        model = train_and_evaluate(0, Training(arena, full["random"], backend=name,
-                                               path=path)).cml
+        if path not in SCORERS:
+            continue
+        trained = _model(arena, backend, options, 0)  # trained by the protocol, seed 0
+        train(trained, arena, TrainConfig(WALKS, STEPS), 0,
+              path="factored" if path == "factored" else "direct", epoch=WALKS)
 
-        def run_plan(r: int, path: str = path, model: CML = model) -> float:
-            t0 = time.perf_counter()
-            res = plan(model, arena, pairs.starts, pairs.goals, path=path)
-            return (time.perf_counter() - t0) / max(int(res.steps.sum()), 1)
+        def run_plan(r: int, path: str = path, model: CML = trained) -> float:
+            return time_plan(model, arena, starts, goals, path)
 
         out[f"plan_step_us{suffix}"] = _median_time(run_plan, repeats) * 1e6
     return out
 
 
+def ratios(float_figs: dict[str, float], fused: dict[str, float],
+           others: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """The ratios of the module docstring, from figures measured in one run."""
+    out = {"float64 direct / fused": {
+        "train": float_figs["train_step_us_random"] / fused["train_step_us_fused"],
+        "plan": float_figs["plan_step_us"] / fused["plan_step_us_fused"],
+        "goal": GOALS["direct"]}}
+    if "train_step_us_factored" in float_figs:
+        out["factored / fused factored"] = {
+            "train": float_figs["train_step_us_factored"]
+            / fused["train_step_us_fused_factored"], "goal": GOALS["factored"]}
+    for name, figs in others.items():
+        out[f"{name} / float64 direct"] = {
+            "train": figs["train_step_us_random"] / float_figs["train_step_us_random"],
+            "plan": figs["plan_step_us"] / float_figs["plan_step_us"],
+            "goal": GOALS["device"]}
+    return out
+
+
 def run_bench(names: Sequence[str], repeats: int = 5,
               progress: Callable[[int, int], None] | None = None) -> dict[str, object]:
-    """``{"backends": {name: figures}}`` for each backend named."""
+    """``{"backends": {name: figures}, "yardstick": ..., "ratios": ...}`` for each name;
+    float64 and the yardstick are always timed (the ratios' denominators)."""
+    for name in names:
+        parse_name(name)
+    total = len(names) + 1
+    fused = bench_backend("float", repeats, ("fused", "fused_factored"))
+    if progress is not None:
+        progress(1, total)
     result: dict[str, dict[str, float]] = {}
-    for i, name in enumerate(names):
+    for i, name in enumerate(dict.fromkeys(["float", *names])):
         result[name] = bench_backend(name, repeats)
         if progress is not None:
-            progress(i + 1, len(names))
-    return {"backends": result, "repeats": repeats, "walks": WALKS, "steps": STEPS}
+            progress(min(i + 2, total), total)
+    others = {n: f for n, f in result.items() if n != "float"}
+    return {"backends": {n: result[n] for n in names}, "yardstick": fused,
+            "ratios": ratios(result["float"], fused, others), "repeats": repeats,
+            "walks": WALKS, "steps": STEPS}
 
 
 ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, steps, goals

@@ -54,7 +54,7 @@ def _print_human(command: str, result: dict[str, Any]) -> None:
         if isinstance(v, float):
             v = f"{v:.4f}"
         print(f"{k:>24}: {v}")
-    for group in ("counters", "backends"):
+    for group in ("counters", "backends", "ratios"):
         if isinstance(result.get(group), dict):
             print(f"{group}:")
             for k, v in result[group].items():

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cml_edge.backends import BACKENDS, backend_spec
+from cml_edge.backends import BACKENDS
 from cml_edge.cli.args import Progress, command_line, positive_int
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
@@ -52,7 +52,11 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("bench", help="time the training and planning loops")
     p.add_argument("--backends", nargs="+", default=None,
-                   help="backends to time (default: all registered)")
+                   help="backends to time (default: all registered); BACKEND:PRESET "
+                        "times one preset (crossbar:reram)")
+    p.add_argument("--presets", action="store_true",
+                   help="time every preset of a backend that takes one (crossbar: ideal, pcm, "
+                        "reram, pcm-symmetric, reram-symmetric)")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
     p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
                    help="also time the wheeled robot on these simulators (kinematic, mujoco)")
@@ -83,11 +87,13 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
-    from cml_edge.bench import run_bench
+    from cml_edge.bench import expand_presets, parse_name, run_bench
 
     names = args.backends or sorted(BACKENDS)
     for name in names:
-        backend_spec(name)
+        parse_name(name)
+    if args.presets:
+        names = expand_presets(names)
     result = run_bench(names, repeats=args.repeats, progress=Progress("bench"))
     if args.robot:
         from cml_edge.bench import bench_robot
