@@ -13,8 +13,10 @@ from cml_edge import __version__
 from cml_edge.cli.args import (
     Progress,
     add_backend,
+    add_chips,
     arena_size,
     backend_options,
+    chips_options,
     command_line,
     finite_float,
     nonneg_int,
@@ -160,6 +162,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--out", help="also write the JSON result to this file")
     _add_planner(p)
     _add_map(p)
+    add_chips(p)
     p.set_defaults(run=cmd_emulate)
 
 
@@ -272,6 +275,11 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
                              f"{grid.side}); leave --arena out")
         size = grid.side
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    chips = chips_options(args)
+    if chips is not None:
+        if grid is not None:
+            raise InputError("--chips runs the protocol's arenas; --map is not supported with it")
+        return _emulate_chips(args, config, options, chips)
     result = run_protocol(args.backend, range(args.seeds), args.trials, size,
                           args.obstacles, config,
                           CMLConfig.for_arena(size, utility=args.utility),
@@ -283,6 +291,28 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
                           pairs=scen_pairs, **options)
     if grid is not None:
         result.update({"map": args.map, "scen": args.scen})
+    result["command"] = command_line()
+    result["cml_edge_version"] = __version__
+    if args.out:
+        atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
+    return result
+
+
+def _emulate_chips(args: argparse.Namespace, config: TrainConfig, options: dict[str, Any],
+                   chips: dict[str, Any]) -> dict[str, Any]:
+    """``emulate --chips N``: the protocol on N chips (:mod:`cml_edge.grid.chips`)."""
+    from dataclasses import asdict
+
+    from cml_edge.grid.chips import run_chips
+
+    protocol = {"backend": args.backend, "seeds": list(range(args.seeds)),
+                "trials": args.trials, "arena_size": args.arena, "obstacles": args.obstacles,
+                "train": asdict(config), "utility": args.utility, "eval_seed": args.eval_seed,
+                "path": args.path, "idle_s": args.drift_time, "planner": args.planner,
+                "max_steps": _budget(args, args.arena, False), "epoch": config.walks,
+                "backend_options": options}
+    result = {"backend": args.backend, **run_chips(
+        protocol=protocol, progress=Progress(f"emulate {args.backend} chips"), **chips)}
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:

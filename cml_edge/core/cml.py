@@ -107,14 +107,19 @@ class CML:
 
     @classmethod
     def create(cls, config: CMLConfig | None = None, backend: str = "float", seed: int = 0,
-               **backend_options: Any) -> CML:
-        """A freshly initialised CML on ``backend`` (weights drawn from ``seed``)."""
+               chip: int | None = None, **backend_options: Any) -> CML:
+        """A freshly initialised CML on ``backend`` (weights drawn from ``seed``).
+
+        ``chip``: the chip seed, the seed of the arrays' device streams (None: ``seed``,
+        one chip per model); see :mod:`cml_edge.grid.chips`.
+        """
         config = config or CMLConfig()
         rng = np.random.default_rng([int(seed), STREAM_INIT])
         W_q = rng.normal(0.0, config.init_std_q, (config.n_s, config.n_i))
         W_k = rng.normal(0.0, config.init_std_k, (config.n_a, config.n_s))
         W_v = rng.normal(0.0, config.init_std_v, (config.n_s, config.n_a))
-        arrays = tuple(make_array(backend, W, seed=seed, index=i, **backend_options)
+        device_seed = seed if chip is None else chip
+        arrays = tuple(make_array(backend, W, seed=device_seed, index=i, **backend_options)
                        for i, W in enumerate((W_q, W_k, W_v)))
         return cls(config, arrays, backend)
 

@@ -104,6 +104,8 @@ class Training:
     """None: :func:`default_path` of the model and the schedule."""
     epoch: int = 10
     """Walks between curve points (and between calls into the compiled loop)."""
+    chip: int | None = None
+    """The chip seed of the arrays (None: each model's seed; :mod:`cml_edge.grid.chips`)."""
 
 
 @dataclass
@@ -146,7 +148,8 @@ def train_and_evaluate(seed: int, training: Training, evaluations: Sequence[Eval
     result leave those plans out.
     """
     cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
-    cml = CML.create(cml_config, training.backend, seed, **training.backend_options)
+    cml = CML.create(cml_config, training.backend, seed, training.chip,
+                     **training.backend_options)
     path = training.path or default_path(cml, training.config.schedule)
     points: list[dict[str, Any]] = []
 
@@ -198,7 +201,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
                  progress: Callable[[int, int], None] | None = None,
                  planner: str = "paper", max_steps: int = MAX_STEPS,
                  eval_size: int | None = None, eval_arena: GridArena | None = None,
-                 pairs: Pairs | None = None,
+                 pairs: Pairs | None = None, chip: int | None = None,
                  **backend_options: Any) -> dict[str, Any]:
     """Train and evaluate one model per seed; the JSON-ready result of ``emulate``.
 
@@ -206,7 +209,8 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
     the empty arena of ``eval_size`` (default ``arena_size``), or ``eval_arena``. The
     result carries the arrays' counters, so ``path`` defaults to ``direct``
     (:func:`default_path`); its keys ``compute_path`` and ``path`` (the older name) both
-    name it.
+    name it. ``chip``: every model on the chip of that chip seed (None: each on its own,
+    the chip of its model seed; :mod:`cml_edge.grid.chips`).
     """
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
@@ -227,7 +231,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         pairs = draw_pairs(eval_arena, trials, eval_seed)
     evaluation = Evaluation(eval_arena, pairs, max_steps, planner)
     training = Training(train_arena, train_config, cml_config, backend, backend_options, path,
-                        epoch)
+                        epoch, chip)
     trials = len(pairs.starts)
     seeds = list(seeds)
     if not seeds:

@@ -1,0 +1,143 @@
+"""Monte Carlo over chips (issue 15): N independent chips through the protocol, and yield.
+
+A chip is the set of physical arrays a model runs on. What it fixes is the **chip seed**:
+the seed of the three arrays' device streams (``stream_key(chip, STREAM_DEVICE + index)``,
+:class:`cml_edge.backends.crossbar.array.CrossbarArray` and the other devices). Each
+array draws from its stream, first, everything fixed at manufacture: on the crossbar its
+stuck devices, the device-to-device spreads of the step sizes and up/down asymmetry, the
+devices' own bounds, their drift exponents, the first programming's noise; and then, in
+the same stream, in order, its cycle-to-cycle draws (pulse, write and read noise); on
+the integer devices the stochastic rounding. So the chip seed fixes the chip and its
+noise; the **model seed** fixes what the chip is asked to learn: the initial weights
+(:meth:`cml_edge.core.cml.CML.create`) and the exploration walks. The evaluation seed
+fixes the pairs. Chip c of a run has chip seed ``first + c``; every chip trains the
+same model seeds, so chips differ only by the chip. A chip whose seed equals the model
+seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
+``--chips``). A float array draws nothing, so its chips are all the same.
+
+Each chip is one task of the sweep engine (:mod:`cml_edge.sweep`: local pool or Dask,
+resumable, one atomic file per chip), running :func:`cml_edge.grid.evaluation.run_protocol`
+for its chip seed. :func:`pool_chips` pools the per-chip summaries generically: every
+numeric key of the protocol's per-seed summaries (the success rate, e_pos, ...; a key
+that a later release adds, such as a weight error, is pooled as it appears) gets its
+distribution over chips (each chip's mean over its models); the **yield** is the
+fraction of chips whose success rate is at least the yield target.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge.errors import InputError
+from cml_edge.sweep import Task, run_sweep
+
+DEFAULT_YIELD_TARGET = 0.95
+CHIPS_FOLDER = Path("runs") / "chips"
+QUANTILES = {"p05": 0.05, "median": 0.5, "p95": 0.95}
+
+
+def check_chips(n: int, yield_target: float) -> None:
+    """InputError unless ``n`` >= 1 and ``yield_target`` is in [0, 1]."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise InputError(f"chips {n!r} is not allowed (allowed: an integer >= 1)")
+    if not (isinstance(yield_target, (int, float)) and math.isfinite(yield_target)
+            and 0.0 <= yield_target <= 1.0):
+        raise InputError(f"yield target {yield_target!r} is not allowed (allowed: 0..1)")
+
+
+def chip_task(chip: int, protocol: dict[str, Any]) -> dict[str, Any]:
+    """One chip through the protocol (a sweep task): ``run_protocol(**protocol)`` on chip
+    seed ``chip``, its pooled summary and per-seed summaries (no curves, no counters)."""
+    from cml_edge.core.cml import CMLConfig
+    from cml_edge.grid.evaluation import run_protocol
+    from cml_edge.grid.training import TrainConfig
+
+    p = dict(protocol)
+    train = TrainConfig(**p.pop("train"))
+    cml_config = CMLConfig.for_arena(p["arena_size"], utility=p.pop("utility"))
+    options = p.pop("backend_options")
+    result = run_protocol(train_config=train, cml_config=cml_config, chip=chip, **p, **options)
+    summary = {k: v for k, v in result.items()
+               if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    return {"chip": chip, **summary, "per_seed": result["per_seed"]}
+
+
+def chip_tasks(n: int, protocol: dict[str, Any], first: int = 0) -> list[Task]:
+    """The tasks of chips ``first`` .. ``first + n - 1``."""
+    return [Task(f"chip-{first + c:06d}", "cml_edge.grid.chips:chip_task",
+                 {"chip": first + c, "protocol": protocol}) for c in range(n)]
+
+
+def _stats(values: Sequence[float]) -> dict[str, float]:
+    v = np.asarray(values, dtype=np.float64)
+    out = {"mean": float(v.mean()), "std": float(v.std()), "min": float(v.min())}
+    out.update({k: float(np.quantile(v, q)) for k, q in QUANTILES.items()})
+    out["max"] = float(v.max())
+    return out
+
+
+def chip_means(per_seed: Sequence[dict[str, Any]]) -> dict[str, float]:
+    """A chip's mean over its models of every numeric per-seed key (None values left out)."""
+    keys = dict.fromkeys(k for s in per_seed for k, v in s.items() if k != "seed"
+                         and isinstance(v, (int, float)) and not isinstance(v, bool))
+    out = {}
+    for k in keys:
+        vals = [s[k] for s in per_seed if isinstance(s.get(k), (int, float))]
+        if vals:
+            out[k] = float(np.mean(vals))
+    return out
+
+
+def chip_yield(success: Sequence[float], target: float) -> float:
+    """The fraction of chips whose success rate is at least ``target``."""
+    if not len(success):
+        raise InputError("no chips")
+    return float(np.mean(np.asarray(success, dtype=np.float64) >= target))
+
+
+def pool_chips(results: Sequence[dict[str, Any]], yield_target: float) -> dict[str, Any]:
+    """``{"chips": {...}, "yield": ...}`` from the chips' task results (module docstring)."""
+    means = [chip_means(r["per_seed"]) for r in results]
+    keys = dict.fromkeys(k for m in means for k in m)
+    distribution = {k: _stats([m[k] for m in means if k in m]) for k in keys}
+    success = [r["success_rate"] for r in results]
+    per_chip = [{"chip": r["chip"], "success_rate": r["success_rate"], **{
+        k: v for k, v in m.items() if k != "success_rate"}} for r, m in zip(results, means)]
+    return {"chips": {"n": len(results), "chip_seeds": [r["chip"] for r in results],
+                      "success_rate": _stats(success), "distribution": distribution,
+                      "per_chip": per_chip},
+            "yield": chip_yield(success, yield_target), "yield_target": float(yield_target)}
+
+
+def protocol_key(protocol: dict[str, Any]) -> str:
+    """A short name of the protocol's parameters (the default folder of its chips)."""
+    text = json.dumps(protocol, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def run_chips(n: int, protocol: dict[str, Any], yield_target: float = DEFAULT_YIELD_TARGET,
+              first: int = 0, out: str | Path | None = None, workers: int | None = None,
+              scheduler: str | None = None,
+              progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Chips ``first`` .. ``first + n - 1`` through the protocol (``run_protocol``'s
+    keyword arguments, JSON-able: ``train`` as TrainConfig fields, ``utility``,
+    ``backend_options``), on the sweep engine; task files under ``out`` (default
+    ``runs/chips/KEY``, KEY from the protocol), so a rerun resumes. Returns the pooled
+    result (:func:`pool_chips`) with the protocol, the folder and the wall time."""
+    check_chips(n, yield_target)
+    if isinstance(first, bool) or not isinstance(first, int) or first < 0:
+        raise InputError(f"first chip seed {first!r} is not allowed (allowed: >= 0)")
+    folder = Path(out) if out is not None else CHIPS_FOLDER / protocol_key(protocol)
+    t0 = time.perf_counter()
+    done = run_sweep(chip_tasks(n, protocol, first), folder, workers=workers,
+                     scheduler=scheduler, progress=progress)
+    return {**pool_chips(list(done.values()), yield_target), "protocol": protocol,
+            "out": str(folder), "wall_time_s": time.perf_counter() - t0}
