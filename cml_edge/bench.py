@@ -1,7 +1,8 @@
 """Speed of the training and planning loops (``cml-edge bench``): figures, not assertions.
 
 Each figure is the median over ``repeats`` timed runs after a compiling warm-up run, in
-microseconds per step:
+microseconds per step of the process's CPU time (``time.process_time``: on a machine
+shared with other jobs, their load does not enter the figures or their ratios):
 
 - ``train_step_us_random`` / ``train_step_us_mixed``: one training step (exploration
   and the local rule) of the direct compiled loop, averaged over the paper's whole
@@ -101,29 +102,29 @@ def _model(arena: GridArena, backend: str, options: dict[str, Any], seed: int) -
 
 def time_train(arena: GridArena, config: TrainConfig, seed: int, backend: str,
                options: dict[str, Any], learner: str) -> float:
-    """Seconds per step of one compiled training from a fresh model of ``seed``."""
+    """CPU seconds per step of one compiled training from a fresh model of ``seed``."""
     cml = _model(arena, backend, options, seed)
     plug = LEARNERS[learner](cml, arena.size)
     explorer = GridExplorer.of(arena, config, seed)
     errors = np.zeros(config.walks)
     c = cml.config
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     train_loop(plug, explorer, c.obs_origin, c.obs_scale, 0, config.walks, config.steps, errors)
-    return (time.perf_counter() - t0) / (config.walks * config.steps)
+    return (time.process_time() - t0) / (config.walks * config.steps)
 
 
 def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
               scorer: str) -> float:
-    """Seconds per step of the paper's planner over the pairs, on the ``scorer`` path."""
+    """CPU seconds per step of the paper's planner over the pairs, on the ``scorer`` path."""
     n = len(starts)
     res = PlanResult(np.zeros((n, 2), np.int64), np.zeros(n, np.int64),
                      np.full((n, 101, 2), -1, np.int64))
     plug = SCORERS[scorer](cml)
     c = cml.config
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     plan_loop(plug, WTA(), arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
               False, starts, goals, 100, res)
-    return (time.perf_counter() - t0) / max(int(res.steps.sum()), 1)
+    return (time.process_time() - t0) / max(int(res.steps.sum()), 1)
 
 
 def bench_backend(name: str, repeats: int = 5, paths: Sequence[str] | None = None
