@@ -593,3 +593,27 @@ def test_bad_chip_options_are_one_line_exit_2(cli, tmp_path, flags, message):
                          "--out", tmp_path / "r.json")
     assert code == 2 and message in err and err.count("\n") == 1 and out == ""
     assert not (tmp_path / "r.json").exists()
+
+
+@pytest.mark.parametrize("k", [-0, 2, 7, 15, 16, 20])
+def test_term_line_is_the_engine_term_cell_by_cell(k):
+    """The vectorised line of the learning engine (issue 15) against engine_term and
+    accumulate, the golden single-term functions, on random traces and accumulators."""
+    rng = np.random.default_rng(k)
+    for mf in (-7 * 127, -3, 0, 5, 7 * 100):
+        factors = rng.integers(-127, 128, 64) * (rng.random(64) < 0.7)
+        line = rng.integers(kern.ACC_MIN, kern.ACC_MAX + 1, 64).astype(np.int32)
+        want = line.astype(np.int64).copy()
+        terms = psat = asat = 0
+        for b, f in enumerate(factors):
+            if f == 0:
+                continue
+            terms += 1
+            t, s1 = kern.engine_term(mf, int(f), 1, k)
+            psat += s1
+            if t != 0:
+                want[b], s2 = kern.accumulate(want[b], t)
+                asat += s2
+        got = line.copy()
+        assert kern._term_line.py_func(got, mf, factors, k) == (terms, psat, asat)
+        assert np.array_equal(got, want)
