@@ -59,6 +59,11 @@ def _print_human(command: str, result: dict[str, Any]) -> None:
             print(f"{group}:")
             for k, v in result[group].items():
                 print(f"{k:>24}: {v}")
+    chips = result.get("chips")
+    if isinstance(chips, dict):  # emulate --chips: the distribution over chips
+        print(f"chips: {chips['n']} (mean, std, min, p05, median, p95, max)")
+        for k, stats in chips["distribution"].items():
+            print(f"{k:>24}: " + " ".join(f"{v:.4g}" for v in stats.values()))
 
 
 def main(argv: list[str] | None = None) -> int:
