@@ -206,15 +206,30 @@ def factored_begin_walk(fl):
 
 @njit(cache=True, inline="always")
 def factored_learn(fl, o_t, o_1, a):
-    # the fields passed on as arguments, read once per step (see core/step.py)
-    return factored_step(fl.E, fl.B, fl.D, fl.C, fl.cnt, fl.visits, fl.cells, fl.n_cells,
-                         fl.frame, o_t, o_1, a)
+    n_i = o_t.shape[0]
+    for i in range(n_i):
+        di = o_1[i] - o_t[i]
+        fl.E[a, i] += o_t[i]
+        fl.B[i, a] += di
+        fl.D[a, i] += o_1[i]
+        for j in range(n_i):
+            fl.C[i, j] += di * o_1[j]
+    fl.cnt[a] += 1.0
+    # the cell of o_t (the frame maps cells to observations one to one)
+    x = int(round(o_t[0] * fl.frame[1] + fl.frame[0]))
+    y = int(round(o_t[1] * fl.frame[1] + fl.frame[0]))
+    if fl.visits[x, y] == 0:
+        fl.cells[fl.n_cells[0], 0] = x
+        fl.cells[fl.n_cells[0], 1] = y
+        fl.n_cells[0] += 1
+    fl.visits[x, y] += 1
+    return 0.0
 
 
 @njit(cache=True, inline="always")
 def factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, o_t, o_1, a):
-    """The factored step on the learner's arrays, passed as arguments: the sums of A, B, C,
-    D and n, and the cell of o_t counted for the affordance term."""
+    """The factored step on the learner's arrays, passed as arguments (the yardstick of
+    :mod:`cml_edge.bench_fused`)."""
     n_i = o_t.shape[0]
     for i in range(n_i):
         di = o_1[i] - o_t[i]
