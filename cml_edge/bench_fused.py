@@ -15,7 +15,7 @@ The per-walk schedule only (the protocol's): updates accumulate and are applied 
 walk's end.
 
 :class:`FusedFactoredLearner` is the yardstick of the factored learner: its fields, its
-step (:func:`~cml_edge.grid.training.factored_step`) with the accumulators passed as
+step (:func:`fused_factored_step`) with the accumulators passed as
 arguments, not read from the learner's tuple at every access.
 """
 
@@ -35,7 +35,6 @@ from cml_edge.grid.training import (
     FactoredLearner,
     factored_begin_walk,
     factored_end_walk,
-    factored_step,
 )
 
 
@@ -188,8 +187,32 @@ def fused_factored_of(cml: CML, size: int):
 
 
 @njit(cache=True, inline="always")
+def fused_factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, o_t, o_1, a):
+    """The factored step on the learner's arrays, passed as arguments (the yardstick of
+    :mod:`cml_edge.bench_fused`)."""
+    n_i = o_t.shape[0]
+    for i in range(n_i):
+        di = o_1[i] - o_t[i]
+        E[a, i] += o_t[i]
+        B[i, a] += di
+        D[a, i] += o_1[i]
+        for j in range(n_i):
+            C[i, j] += di * o_1[j]
+    cnt[a] += 1.0
+    # the cell of o_t (the frame maps cells to observations one to one)
+    x = int(round(o_t[0] * frame[1] + frame[0]))
+    y = int(round(o_t[1] * frame[1] + frame[0]))
+    if visits[x, y] == 0:
+        cells[n_cells[0], 0] = x
+        cells[n_cells[0], 1] = y
+        n_cells[0] += 1
+    visits[x, y] += 1
+    return 0.0
+
+
+@njit(cache=True, inline="always")
 def _ff_learn(fl, o_t, o_1, a):
-    return factored_step(fl.E, fl.B, fl.D, fl.C, fl.cnt, fl.visits, fl.cells, fl.n_cells,
+    return fused_factored_step(fl.E, fl.B, fl.D, fl.C, fl.cnt, fl.visits, fl.cells, fl.n_cells,
                          fl.frame, o_t, o_1, a)
 
 

@@ -226,30 +226,6 @@ def factored_learn(fl, o_t, o_1, a):
     return 0.0
 
 
-@njit(cache=True, inline="always")
-def factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, o_t, o_1, a):
-    """The factored step on the learner's arrays, passed as arguments (the yardstick of
-    :mod:`cml_edge.bench_fused`)."""
-    n_i = o_t.shape[0]
-    for i in range(n_i):
-        di = o_1[i] - o_t[i]
-        E[a, i] += o_t[i]
-        B[i, a] += di
-        D[a, i] += o_1[i]
-        for j in range(n_i):
-            C[i, j] += di * o_1[j]
-    cnt[a] += 1.0
-    # the cell of o_t (the frame maps cells to observations one to one)
-    x = int(round(o_t[0] * frame[1] + frame[0]))
-    y = int(round(o_t[1] * frame[1] + frame[0]))
-    if visits[x, y] == 0:
-        cells[n_cells[0], 0] = x
-        cells[n_cells[0], 1] = y
-        n_cells[0] += 1
-    visits[x, y] += 1
-    return 0.0
-
-
 @njit(cache=True)
 def factored_end_walk(fl):
     Wq = fl.Wq
