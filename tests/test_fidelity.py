@@ -122,3 +122,23 @@ def test_evaluate_reports_the_metrics(tmp_path, cli):
     assert code == 0 and data["decision_agreement"]["n"] == 1
     assert 0 < data["weight_error"]["W_v"]["mean"] < 2
     assert data["read_snr"]["W_q"]["mean"] > 1
+
+
+@pytest.mark.parametrize("device", [[], ["--backend", "crossbar", "--preset", "pcm"]])
+def test_robot_train_takes_device_options_and_evaluate_reports_the_metrics(tmp_path, cli,
+                                                                         device):
+    model = tmp_path / "r.npz"
+    code, out, _ = cli("robot", "train", *device, "--walks", 3, "--steps", 60, "--seeds", 2,
+                       "--out", model, "--json")
+    assert code == 0 and json.loads(out)["backend_options"] == (
+        {"preset": "pcm"} if device else {})
+    code, out, _ = cli("robot", "evaluate", model, "--trials", 5, "--json")
+    data = json.loads(out)
+    assert code == 0 and data["decision_agreement"]["n"] == 2
+    assert all("decision_agreement" in s for s in data["per_seed"])
+    if device:
+        assert 0.05 < data["weight_error"]["matrix_mean"]["mean"] < 2
+        assert data["read_snr"]["W_q"]["mean"] < 1e4
+    else:  # float64 is its own twin
+        assert data["weight_error"]["matrix_mean"]["max"] == 0
+        assert data["decision_agreement"]["min"] == 1.0
