@@ -47,7 +47,7 @@ def test_each_scenario_runs_on_a_tiny_budget(name):
         assert 0 <= p["decision_agreement"]["mean"] <= 1
     if name == "recovery":
         costs = [p["pulses"]["mean"] + p["writes"]["mean"] for p in r["parts"]]
-        assert costs[0] == 0 and all(c > 0 for c in costs[1:])
+        assert costs[0] == 0 and all(a < b for a, b in zip(costs, costs[1:]))  # cumulative
         assert r["dqn_retrain"]["available"] and "estimate" in r["dqn_retrain"]["method"]
     json.dumps(r, allow_nan=False)
 

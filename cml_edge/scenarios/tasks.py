@@ -83,25 +83,26 @@ def grid_task(seed: int, backend: str, backend_options: dict[str, Any], arena: i
                                     backend_options, PATH))
     twin = float_twin(seed, train_arena, config, cml_config)
     out = []
-    by_age: dict[float, tuple[CML, CML, int]] = {}  # age -> (relearning model, twin, K done)
+    # age -> (relearning model, its twin, walks relearnt, the counters before relearning)
+    by_age: dict[float, tuple[CML, CML, int, dict[str, int]]] = {}
     for spec in sorted(parts, key=lambda p: (p["age_s"], p["relearn_walks"])):
         age, k = float(spec["age_s"]), int(spec["relearn_walks"])
         if age not in by_age:
             aged = copy.deepcopy(run.cml)
             for arr in aged.arrays:
                 arr.elapse(idle_s + age)
-            by_age[age] = (aged, copy.deepcopy(twin), 0)
-        model, model_twin, done = by_age[age]
+            by_age[age] = (aged, copy.deepcopy(twin), 0, aged.counters())
+        model, model_twin, done, base = by_age[age]
         record: dict[str, Any] = {}
         if k > done:
-            before = model.counters()
             more = TrainConfig(k - done, steps, "random", RELEARN_SCHEDULE)
             train(model, train_arena, more, seed, path=PATH, epoch=k - done,
                   first_walk=walks + done)
             float_twin(seed, train_arena, more, cml_config, first_walk=walks + done,
                        twin=model_twin)
-            by_age[age] = (model, model_twin, k)
-            record["relearn"] = relearn_cost(model, before, model.counters())
+            by_age[age] = (model, model_twin, k, base)
+        if k > 0:  # all K walks, from the aged model
+            record["relearn"] = relearn_cost(model, base, model.counters())
         out.append({**_measure(seed, copy.deepcopy(model), model_twin, spec, arena), **record})
     order = {p["name"]: i for i, p in enumerate(parts)}
     out.sort(key=lambda r: order[r["name"]])
