@@ -152,3 +152,14 @@ def test_a_real_break_point_and_a_range_that_does_not_bracket():
         find_breakpoint("paper", "crossbar", "read_noise", value_range=(0.0, 0.001), **kw)
     with pytest.raises(InputError, match="at least 2 seeds"):
         find_breakpoint("paper", "crossbar", "read_noise", **{**kw, "seeds": 1})
+
+
+def test_the_default_ranges_are_valid_settings():
+    from cml_edge.core.cml import CML
+
+    for knob in KNOBS.values():
+        for device, field in knob.fields.items():
+            if device in ("*", "loihi2") or field == "stuck":  # loihi2: --range within 1..8
+                continue
+            for value in (knob.lo, knob.hi):
+                CML.create(backend=device, **{field: int(value) if knob.integer else value})

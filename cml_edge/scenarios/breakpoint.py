@@ -94,7 +94,7 @@ KNOBS: dict[str, Knob] = {k.name: k for k in (
     Knob("stuck", {"crossbar": "stuck"}, 0.0, 0.5, "low",
          doc="crossbar fraction of stuck devices, half at g_min (stuck_low) and half at "
              "g_max (stuck_high)"),
-    Knob("adc_bits", {"crossbar": "adc_bits"}, 1, 14, "high", integer=True,
+    Knob("adc_bits", {"crossbar": "adc_bits"}, 2, 14, "high", integer=True,
          doc="crossbar ADC bits on the outputs"),
 )}
 
