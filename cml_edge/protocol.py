@@ -4,9 +4,10 @@ random streams, and the DQN's rewards.
 Every random draw of training and exploration (grid and robot), the robot's evaluation
 goals, stochastic rounding and device noise is ``uniform(stream_key(seed, STREAM),
 counter)`` (:mod:`cml_edge.rng`), one stream per independent use, so that a draw depends
-only on (seed, stream, counter). Four draws use NumPy generators seeded from the same
+only on (seed, stream, counter). Five draws use NumPy generators seeded from the same
 integers instead: the CML's initial weights (:meth:`cml_edge.core.cml.CML.create`, keyed
-``[seed, STREAM_INIT]``), the grid's evaluation pairs
+``[seed, STREAM_INIT]``), the states whose reads the read-SNR metric samples (keyed
+``[seed, STREAM_FIDELITY]``, :mod:`cml_edge.core.fidelity`), the grid's evaluation pairs
 (:func:`cml_edge.grid.metrics.draw_pairs`) and obstacle cells
 (:meth:`cml_edge.grid.arena.GridArena.with_obstacles`), both from the evaluation seed,
 and the DQN baseline's evaluation starts (:func:`cml_edge.baselines.dqn.fixed_goal_pairs`).
@@ -32,6 +33,9 @@ STREAM_EXPLORE = 2
 """The grid: exploration moves (counters 4n, 4n + 1, 4n + 2 at training step n)."""
 STREAM_INIT = 3
 """The CML's initial weights (a NumPy generator keyed [seed, STREAM_INIT])."""
+STREAM_FIDELITY = 4
+"""The states sampled for the read-SNR metric (a NumPy generator keyed [seed,
+STREAM_FIDELITY]; :mod:`cml_edge.core.fidelity`)."""
 STREAM_DEVICE = 16
 """Device noise of array ``index`` (0: W_q, 1: W_k, 2: W_v) on stream STREAM_DEVICE + index."""
 STREAM_ROBOT_START = 48

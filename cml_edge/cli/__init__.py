@@ -4,6 +4,7 @@
 - :mod:`~cml_edge.cli.robot`: ``robot train|evaluate|navigate``;
 - :mod:`~cml_edge.cli.dqn`: ``dqn train|evaluate``;
 - :mod:`~cml_edge.cli.tools`: ``sweep``, ``report``, ``bench``;
+- :mod:`~cml_edge.cli.scenario`: ``scenario``, ``breakpoint`` (issue 14);
 - :mod:`~cml_edge.cli.device`: ``device characterize``;
 - :mod:`~cml_edge.cli.export`: ``export`` (a loihi2 model's weights for Lava);
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the
@@ -22,10 +23,10 @@ import sys
 from typing import Any
 
 from cml_edge import __version__
-from cml_edge.cli import device, dqn, export, grid, robot, tools
+from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
 from cml_edge.errors import InputError
 
-COMMAND_GROUPS = (grid, tools, robot, dqn, device, export)
+COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -23,12 +23,14 @@ from cml_edge.cli.args import (
     positive_int,
 )
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
+from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import default_path, evaluate_model, run_protocol
+from cml_edge.grid.evaluation import Evaluation, default_path, run_protocol
 from cml_edge.grid.exploration import EXPLORATIONS
-from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances
+from cml_edge.grid.fidelity import float_twin, seed_fidelity
+from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.protocol import EVAL_SEED, check_seeds
@@ -211,14 +213,33 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
-    result = evaluate_model(cml, arena, pairs, path=path, max_steps=budget,
-                            planner=args.planner)
+    res = Evaluation(arena, pairs, budget, args.planner).plan(cml, path)
+    result = summarize(res.final, res.steps, pairs)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
            "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget}
     if grid is not None:
         out.update({"map": args.map, "scen": args.scen})
+    out.update(_model_fidelity(cml, record, arena, pairs, res, args.planner, budget))
     return out
+
+
+def _model_fidelity(cml: CML, record: dict[str, Any], arena: GridArena, pairs: Pairs,
+                    res: Any, planner: str, budget: int) -> dict[str, Any]:
+    """The saved model against its float64 twin, retrained from the model file's training
+    record (seed, arena, walks, steps, exploration, schedule): the keys ``emulate`` adds,
+    over its one seed. A file that does not record its training gets None for each."""
+    keys = ("seed", "arena", "walks", "steps", "explore", "schedule")
+    if any(k not in record for k in keys):
+        return {"weight_error": None, "decision_agreement": None, "read_snr": None,
+                "fidelity_twin": "unavailable: the model file does not record its training"}
+    config = TrainConfig(int(record["walks"]), int(record["steps"]), record["explore"],
+                         record["schedule"])
+    seed = int(record["seed"])
+    twin = float_twin(seed, GridArena.empty(int(record["arena"])), config, cml.config)
+    fid = seed_fidelity(seed, cml, twin, arena, pairs.goals, res, planner, budget)
+    return {**pool_seeds([fid]), "fidelity_twin": TWIN,
+            "decisions": fid["decisions"], "decisions_agreed": fid["decisions_agreed"]}
 
 
 def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:

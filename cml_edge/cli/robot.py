@@ -8,9 +8,10 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
-from cml_edge.backends import backend_spec
 from cml_edge.cli.args import (
     Progress,
+    add_backend,
+    backend_options,
     command_line,
     finite_float,
     nonneg_int,
@@ -103,7 +104,7 @@ def add_parsers(subparsers) -> None:
                    help=f"actions per walk ({RobotTrainConfig.steps})")
     t.add_argument("--schedule", choices=SCHEDULES, default="walk",
                    help="updates applied at the end of each walk (walk) or at once (step)")
-    t.add_argument("--backend", default="float", help="synaptic array (float)")
+    add_backend(t)
     t.add_argument("--seed", type=nonneg_int, default=0, help="first model seed (0)")
     t.add_argument("--seeds", type=positive_int, default=1,
                    help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
@@ -151,7 +152,7 @@ def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
 def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     check_seeds("--seed", args.seed, args.seeds)
     writable_file(args.out, "--out")
-    backend_spec(args.backend)
+    options = backend_options(args)
     robot = RobotConfig()
     settings = RobotCMLSettings(args.observation, args.goal_heading,
                                 args.heading_scale or RobotCMLSettings.heading_scale)
@@ -160,7 +161,7 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     seeds = list(range(args.seed, args.seed + args.seeds))
     cmls, record = train_models(seeds, sim, settings, config,
                                 settings.cml_config(utility=args.utility), args.backend,
-                                args.path, Progress("robot train"))
+                                args.path, Progress("robot train"), options)
     record.update({"command": command_line(),
                    "cml_edge_version": __version__})
     mujoco = asdict_options(sim) if args.sim == "mujoco" else None
@@ -168,7 +169,8 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
                                        "sim": args.sim, "mujoco": mujoco, "training": record})
     return {"model": args.out, "sim": args.sim, "observation": settings.observation,
             "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
-            "utility": args.utility, "backend": args.backend, "walks": config.walks,
+            "utility": args.utility, "backend": args.backend, "backend_options": options,
+            "walks": config.walks,
             "steps": config.steps, "schedule": config.schedule, "seeds": seeds,
             "compute_path": args.path, "path": args.path, "eq3_gain": record["eq3_gain"],
             "final_train_error": [e[-1] for e in record["train_error"]],
@@ -229,13 +231,36 @@ def _cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
             raise InputError(f"--seeds {args.seeds}: the model file holds {len(cmls)} models")
         cmls = cmls[: args.seeds]
     goals = draw_goals(robot, args.trials, args.eval_seed)
-    result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions, args.radius,
-                             args.stop, args.path, Progress(f"robot evaluate ({sim_name})"))
     seeds = meta["training"].get("seeds", list(range(len(cmls))))[: len(cmls)]
+    twins, why = _twins(meta, settings, robot, cmls, seeds)
+    result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions, args.radius,
+                             args.stop, args.path, Progress(f"robot evaluate ({sim_name})"),
+                             twins)
+    if twins is None:
+        result.update({"weight_error": None, "decision_agreement": None, "read_snr": None,
+                       "fidelity_twin": f"unavailable: {why}"})
     for entry, seed in zip(result["per_seed"], seeds):
         entry["seed"] = seed
     return {**_planning_record(args, meta, settings, cmls, sim_name, base), **result,
             "seed_list": seeds}
+
+
+def _twins(meta: dict[str, Any], settings: RobotCMLSettings, robot: RobotConfig, cmls: list,
+           seeds: list[int]):
+    """((seed, float64 twin) per model, retrained from the file's training record on the
+    kinematic simulator, :mod:`cml_edge.robot.fidelity`), or (None, why not)."""
+    from cml_edge.robot.fidelity import robot_twin
+
+    training = meta["training"]
+    if meta["sim"] != "kinematic":
+        return None, f"the models were trained on {meta['sim']} (twins are retrained on the " \
+                     "kinematic simulator only)"
+    if any(k not in training for k in ("walks", "steps", "schedule", "seeds")):
+        return None, "the model file does not record its training"
+    config = RobotTrainConfig(training["walks"], training["steps"], training["schedule"])
+    sim = make_sim("kinematic", robot)
+    return [(seed, robot_twin(seed, sim, settings, config, cml.config))
+            for seed, cml in zip(seeds, cmls)], ""
 
 
 def _cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:

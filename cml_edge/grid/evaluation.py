@@ -35,9 +35,11 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import schedule_defers
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
+from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, PlanResult, plan
 from cml_edge.grid.training import TrainConfig, train
@@ -138,15 +140,10 @@ class SeedRun:
         return {k: v - self.train_counters.get(k, 0) for k, v in self.counters.items()}
 
 
-def train_and_evaluate(seed: int, training: Training, evaluations: Sequence[Evaluation] = (),
-                       *, curve: Evaluation | None = None, curve_at_start: bool = False,
-                       idle_s: float = 0.0) -> SeedRun:
-    """Make the CML of ``seed``, train it, let ``idle_s`` pass, plan each evaluation.
-
-    With ``curve``, the model plans it every ``training.epoch`` walks (and before
-    training with ``curve_at_start``): the convergence curve. The training times in the
-    result leave those plans out.
-    """
+def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None,
+               curve_at_start: bool = False) -> SeedRun:
+    """Make the CML of ``seed`` and train it (the first half of :func:`train_and_evaluate`);
+    the run has no evaluations yet (:func:`evaluate_seed`)."""
     cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
     cml = CML.create(cml_config, training.backend, seed, training.chip,
                      **training.backend_options)
@@ -171,13 +168,50 @@ def train_and_evaluate(seed: int, training: Training, evaluations: Sequence[Eval
 
     errors = train(cml, training.arena, training.config, seed, path=path,
                    epoch=training.epoch, on_epoch=on_epoch)
-    train_counters = cml.counters()
+    counters = cml.counters()
+    return SeedRun(int(seed), cml, path, errors, points, [], [], counters, dict(counters), wall,
+                   cpu)
+
+
+def evaluate_seed(run: SeedRun, evaluations: Sequence[Evaluation], idle_s: float = 0.0) -> None:
+    """Let ``idle_s`` pass on the run's arrays, then plan each evaluation; the run's
+    results, summaries and counters are updated (the second half of
+    :func:`train_and_evaluate`)."""
+    cml = run.cml
     for arr in cml.arrays:  # time between programming and use (drift, retention)
         arr.elapse(idle_s)
-    results = [ev.plan(cml, path) for ev in evaluations]
-    summaries = [summarize(r.final, r.steps, ev.pairs) for r, ev in zip(results, evaluations)]
-    return SeedRun(int(seed), cml, path, errors, points, results, summaries, train_counters,
-                   cml.counters(), wall, cpu)
+    for ev in evaluations:
+        r = ev.plan(cml, run.path)
+        run.results.append(r)
+        run.summaries.append(summarize(r.final, r.steps, ev.pairs))
+    run.counters = cml.counters()
+
+
+def train_and_evaluate(seed: int, training: Training, evaluations: Sequence[Evaluation] = (),
+                       *, curve: Evaluation | None = None, curve_at_start: bool = False,
+                       idle_s: float = 0.0) -> SeedRun:
+    """Make the CML of ``seed``, train it, let ``idle_s`` pass, plan each evaluation.
+
+    With ``curve``, the model plans it every ``training.epoch`` walks (and before
+    training with ``curve_at_start``): the convergence curve. The training times in the
+    result leave those plans out.
+    """
+    run = train_seed(seed, training, curve=curve, curve_at_start=curve_at_start)
+    evaluate_seed(run, evaluations, idle_s)
+    return run
+
+
+def run_fidelity(run: SeedRun, training: Training, evaluations: Sequence[Evaluation],
+                 twin: CML | None = None) -> list[dict[str, Any]]:
+    """The run's weight error, decision agreement and read SNR against its float64 twin
+    (:mod:`cml_edge.grid.fidelity`), one record per evaluation. ``twin``: the twin if
+    already trained. The run itself is not changed."""
+    cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
+    if twin is None:
+        twin = float_twin(run.seed, training.arena, training.config, cml_config)
+    return [seed_fidelity(run.seed, run.cml, twin, ev.arena, ev.pairs.goals, res, ev.planner,
+                          ev.max_steps)
+            for ev, res in zip(evaluations, run.results)]
 
 
 def evaluate_model(cml: CML, arena: GridArena, pairs: Pairs, path: str = "direct",
@@ -201,7 +235,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
                  progress: Callable[[int, int], None] | None = None,
                  planner: str = "paper", max_steps: int = MAX_STEPS,
                  eval_size: int | None = None, eval_arena: GridArena | None = None,
-                 pairs: Pairs | None = None, chip: int | None = None,
+                 pairs: Pairs | None = None, chip: int | None = None, fidelity: bool = True,
                  **backend_options: Any) -> dict[str, Any]:
     """Train and evaluate one model per seed; the JSON-ready result of ``emulate``.
 
@@ -210,7 +244,10 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
     result carries the arrays' counters, so ``path`` defaults to ``direct``
     (:func:`default_path`); its keys ``compute_path`` and ``path`` (the older name) both
     name it. ``chip``: every model on the chip of that chip seed (None: each on its own,
-    the chip of its model seed; :mod:`cml_edge.grid.chips`).
+    the chip of its model seed; :mod:`cml_edge.grid.chips`). With ``fidelity`` (the
+    default), each seed is also measured against its float64 twin (:func:`run_fidelity`):
+    the keys ``weight_error``, ``decision_agreement`` and ``read_snr`` (seed means and
+    spreads; per seed in ``per_seed``) are added, and no other number changes.
     """
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
@@ -236,7 +273,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
     seeds = list(seeds)
     if not seeds:
         raise InputError("no seeds given (allowed: one or more model seeds)")
-    finals, steps, per_seed, curves, train_errors = [], [], [], [], []
+    finals, steps, per_seed, curves, train_errors, fids = [], [], [], [], [], []
     counters: dict[str, int] = {}
     t0 = time.perf_counter()
     for n, seed in enumerate(seeds):
@@ -245,6 +282,10 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         finals.append(res.final)
         steps.append(res.steps)
         per_seed.append({"seed": int(seed), **summary})
+        if fidelity:
+            (fid,) = run_fidelity(run, training, [evaluation])
+            fids.append(fid)
+            per_seed[-1].update(fid)
         curves.append([p["e_pos_mean"] for p in run.curve])
         train_errors.append(run.train_error.tolist())
         for k, v in run.counters.items():
@@ -253,6 +294,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
             progress(n + 1, len(seeds))
     pooled = summarize(np.concatenate(finals), np.concatenate(steps),
                        pool_pairs(pairs, len(seeds)))
+    extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if fidelity else {}
     return {
         "backend": backend,
         "seeds": len(seeds),
@@ -280,4 +322,5 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         "counters": counters,
         "backend_options": backend_options,
         "wall_time_s": time.perf_counter() - t0,
+        **extra,
     }

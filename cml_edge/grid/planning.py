@@ -105,16 +105,29 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
 
 
 @njit(cache=True)
+def decision_buffers():
+    """The work arrays of one decision: o, o* - o, u, the scores, the available moves."""
+    return (np.zeros(2), np.zeros(2), np.zeros(N_ACTIONS), np.zeros(N_ACTIONS),
+            np.zeros(N_ACTIONS, dtype=np.uint8))
+
+
+@njit(cache=True)
+def decision_inputs(x, y, gx, gy, origin, scale, o, dgo):
+    """o and o* - o at cell (x, y) for the goal (gx, gy): the planning inputs (o* - o is
+    read through W_q once)."""
+    observe(gx, gy, origin, scale, dgo)
+    observe(x, y, origin, scale, o)
+    for i in range(2):
+        dgo[i] -= o[i]
+
+
+@njit(cache=True)
 def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, max_steps,
               res):
     """Plan every (start, goal) pair (the module docstring), for any scorer and chooser."""
     prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
-    o = np.zeros(2)
-    dgo = np.zeros(2)
-    u = np.zeros(N_ACTIONS)
-    score = np.zeros(N_ACTIONS)
-    mask = np.zeros(N_ACTIONS, dtype=np.uint8)
+    o, dgo, u, score, mask = decision_buffers()
     for trial in range(starts.shape[0]):
         reset(chooser)
         x = starts[trial, 0]
@@ -125,10 +138,7 @@ def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goa
         res.paths[trial, 0, 1] = y
         taken = 0
         while taken < max_steps and not (x == gx and y == gy):
-            observe(gx, gy, origin, scale, dgo)
-            observe(x, y, origin, scale, o)
-            for i in range(2):
-                dgo[i] -= o[i]  # o* - o, read through W_q once
+            decision_inputs(x, y, gx, gy, origin, scale, o, dgo)
             scores(scorer, o, dgo, u, score)
             if available_moves(free, x, y, mask) == 0:
                 break

@@ -79,12 +79,18 @@ class TrainConfig:
 
 
 def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str = "direct",
-          epoch: int = 10, on_epoch: Callable[[int], None] | None = None) -> np.ndarray:
+          epoch: int = 10, on_epoch: Callable[[int], None] | None = None,
+          first_walk: int = 0) -> np.ndarray:
     """Train ``cml`` in place; returns the mean training error ||e_t|| of each walk.
 
     ``on_epoch(walks_done)`` is called every ``epoch`` walks and at the end (the
-    paper evaluates every 10 walks).
+    paper evaluates every 10 walks). ``first_walk``: the walks are those of index
+    ``first_walk`` onward of the seed's streams (their start cells and moves), e.g. more
+    walks after a training of ``first_walk`` walks; the visited set of mixed exploration
+    starts empty all the same.
     """
+    if isinstance(first_walk, bool) or int(first_walk) != first_walk or first_walk < 0:
+        raise InputError(f"first walk {first_walk!r} is not an integer >= 0")
     if path not in PATHS:
         raise InputError(f"unknown path {path!r}; allowed: {', '.join(PATHS)}")
     defer = schedule_defers(config.schedule)
@@ -95,15 +101,16 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     explorer = GridExplorer.of(arena, config, seed)
     loop = train_loop.py_func if path == "reference" else train_loop
     c = cml.config
-    errors = np.zeros(config.walks)
+    errors = np.zeros(first_walk + config.walks)
     done = 0
     while done < config.walks:
         stop = min(done + epoch, config.walks)
-        loop(learner, explorer, c.obs_origin, c.obs_scale, done, stop, config.steps, errors)
+        loop(learner, explorer, c.obs_origin, c.obs_scale, first_walk + done, first_walk + stop,
+             config.steps, errors)
         done = stop
         if on_epoch is not None:
             on_epoch(done)
-    return errors
+    return errors[first_walk:]
 
 
 def make_learner(cml: CML, path: str, defer: bool, size: int):

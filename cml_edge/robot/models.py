@@ -98,15 +98,21 @@ def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
 # training and the protocol ----------------------------------------------------------------
 def train_models(seeds: list[int], sim: RobotSim, settings: RobotCMLSettings,
                  config: RobotTrainConfig, cml_config: CMLConfig, backend: str = "float",
-                 path: str = "direct", progress=None) -> tuple[list[CML], dict[str, Any]]:
-    """Train one CML per seed on ``sim``; returns them and the training record."""
+                 path: str = "direct", progress=None,
+                 backend_options: dict[str, Any] | None = None
+                 ) -> tuple[list[CML], dict[str, Any]]:
+    """Train one CML per seed on ``sim``, its arrays on ``backend`` with
+    ``backend_options`` (the device's fields, e.g. a preset); returns them and the
+    training record."""
+    options = dict(backend_options or {})
     cmls, errors, gains = [], [], []
     # compile first (a one-action walk on a throwaway CML), so the timing is the loop's
-    train_robot(CML.create(cml_config, backend, 0), sim, settings, RobotTrainConfig(1, 1), 0, path)
+    train_robot(CML.create(cml_config, backend, 0, **options), sim, settings,
+                RobotTrainConfig(1, 1), 0, path)
     t0 = time.perf_counter()
     total = len(seeds) * config.walks
     for n, seed in enumerate(seeds):
-        cml = CML.create(cml_config, backend, seed)
+        cml = CML.create(cml_config, backend, seed, **options)
 
         def on_walk(done: int, n: int = n) -> None:
             if progress is not None:
@@ -118,8 +124,8 @@ def train_models(seeds: list[int], sim: RobotSim, settings: RobotCMLSettings,
         gains.append(info["eq3_gain"])
     wall = time.perf_counter() - t0
     record = {"walks": config.walks, "steps": config.steps, "schedule": config.schedule,
-              "seeds": [int(s) for s in seeds], "path": path, "train_error": errors,
-              "eq3_gain": gains, "wall_time_s": wall,
+              "seeds": [int(s) for s in seeds], "path": path, "backend_options": options,
+              "train_error": errors, "eq3_gain": gains, "wall_time_s": wall,
               "actions_per_s": len(seeds) * config.walks * config.steps / max(wall, 1e-9)}
     return cmls, record
 
@@ -128,8 +134,15 @@ def evaluate_models(cmls: list[CML], sim: RobotSim, settings: RobotCMLSettings, 
                     base: tuple[float, float, float] = BASE_POSE,
                     max_actions: int = MAX_ACTIONS, radius: float = GOAL_RADIUS,
                     stop: str = "action", path: str = "direct",
-                    progress=None) -> dict[str, Any]:
-    """Drive each model from ``base`` to every goal; pooled and per-model metrics."""
+                    progress=None, twins: list[tuple[int, CML]] | None = None
+                    ) -> dict[str, Any]:
+    """Drive each model from ``base`` to every goal; pooled and per-model metrics. With
+    ``twins`` ((seed, float64 twin) per model, :mod:`cml_edge.robot.fidelity`), also each
+    model's weight error, decision agreement and read SNR, pooled over the models
+    (:func:`cml_edge.core.fidelity.pool_seeds`)."""
+    from cml_edge.core.fidelity import TWIN, pool_seeds
+    from cml_edge.robot.fidelity import robot_seed_fidelity
+
     starts = np.tile(np.asarray(base, dtype=np.float64), (len(goals), 1))
     results: list[RobotPlanResult] = []
     per_seed = []
@@ -142,12 +155,16 @@ def evaluate_models(cmls: list[CML], sim: RobotSim, settings: RobotCMLSettings, 
         if progress is not None:
             progress(n + 1, len(cmls))
     wall = time.perf_counter() - t0
+    for (seed, twin), cml, res, entry in zip(twins or [], cmls, results, per_seed):
+        entry.update(robot_seed_fidelity(seed, cml, twin, sim, settings, goals, res))
     pooled = RobotPlanResult(*(np.concatenate(arrays) for arrays in zip(*results)))
     all_starts = np.concatenate([starts] * len(cmls))
     summary = summarize_robot(pooled, all_starts, np.concatenate([goals] * len(cmls)))
     actions = int(pooled.steps.sum())
+    fidelity = {**pool_seeds(per_seed), "fidelity_twin": TWIN} if twins is not None else {}
     return {**summary, "seeds": len(cmls), "trials": int(len(goals)), "per_seed": per_seed,
-            "actions": actions, "wall_time_s": wall, "actions_per_s": actions / max(wall, 1e-9)}
+            "actions": actions, "wall_time_s": wall, "actions_per_s": actions / max(wall, 1e-9),
+            **fidelity}
 
 
 # figures ------------------------------------------------------------------------------

@@ -1,0 +1,111 @@
+"""``cml-edge scenario | breakpoint``: the workloads that tell devices apart (issue 14)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from cml_edge.cli.args import (
+    Progress,
+    add_backend,
+    backend_options,
+    command_line,
+    finite_float,
+    positive_int,
+)
+from cml_edge.scenarios.breakpoint import KNOBS, MIN_SEEDS, find_breakpoint
+from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
+from cml_edge.scenarios.runner import run_scenario
+from cml_edge.storage import atomic_write_text, writable_file, writable_folder
+
+
+def _add_common(p: argparse.ArgumentParser, seeds: int) -> None:
+    add_backend(p)
+    p.add_argument("--seeds", type=positive_int, default=seeds,
+                   help=f"model seeds 0..N-1 ({seeds})")
+    p.add_argument("--budget", choices=BUDGETS, default=None,
+                   help="walks x steps and trials of every run: full (the paper's 100 x "
+                        "900, 100 trials; default), quick (30 x 900, 50), tiny (3 x 100, "
+                        "6: a smoke test)")
+    p.add_argument("--quick", action="store_true", help="the quick budget (--budget quick)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on this Dask distributed scheduler (tcp://host:8786)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_parsers(sub) -> None:
+    """The scenario and break-point commands."""
+    p = sub.add_parser("scenario", help="run a named scenario on a device (resumable sweep)")
+    p.add_argument("name", help=f"scenario: {', '.join(SCENARIOS)}")
+    _add_common(p, 10)
+    p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
+    p.set_defaults(run=cmd_scenario)
+
+    p = sub.add_parser("breakpoint", help="the knob value where a scenario's success "
+                       "crosses a target (bisection on a seeded grid)")
+    p.add_argument("--knob", required=True, help=f"device setting: {', '.join(KNOBS)}")
+    p.add_argument("--scenario", required=True, help=f"scenario: {', '.join(SCENARIOS)}")
+    p.add_argument("--target", type=finite_float, default=0.95,
+                   help="success rate to cross (0.95)")
+    p.add_argument("--range", type=finite_float, nargs=2, metavar=("LO", "HI"), default=None,
+                   help="knob range (default: the knob's)")
+    p.add_argument("--part", default=None,
+                   help="the scenario part whose success counts (default: the worst part)")
+    _add_common(p, 3)
+    p.add_argument("--out", default=None,
+                   help="folder: one resumable sweep per knob value, and breakpoint.json")
+    p.set_defaults(run=cmd_breakpoint)
+
+
+def _budget(args: argparse.Namespace) -> str:
+    from cml_edge.errors import InputError
+
+    if args.quick and args.budget not in (None, "quick"):
+        raise InputError(f"--quick conflicts with --budget {args.budget}")
+    return "quick" if args.quick else (args.budget or "full")
+
+
+def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
+    if args.out is not None:
+        writable_folder(args.out, "--out")
+    result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
+                          _budget(args), args.out, args.workers, args.scheduler,
+                          Progress(f"scenario {args.name}"), command=command_line())
+    if not args.json:
+        _print_table(result)
+    return result
+
+
+def _print_table(result: dict[str, Any]) -> None:
+    """The parts as a markdown table: success, overhead and the seed means of the metrics."""
+    from cml_edge.experiments.common import markdown_table
+
+    rows = [{"part": p["part"], "success": p["success_rate"], "overhead": p["overhead_mean"],
+             "weight error": p["weight_error"]["matrix_mean"]["mean"],
+             "agreement": p["decision_agreement"]["mean"],
+             **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
+                if "pulses" in p else {})} for p in result["parts"]]
+    print(f"{result['scenario']} on {result['backend']} {result['backend_options'] or ''} "
+          f"({result['seeds']} seeds, {result['budget']} budget)")
+    print(markdown_table(rows, tuple(rows[0])))
+    result["_printed"] = True
+
+
+def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.errors import InputError
+
+    if args.seeds < MIN_SEEDS:
+        raise InputError(f"--seeds {args.seeds}: a break point needs at least {MIN_SEEDS}")
+    if args.out is not None:
+        writable_folder(args.out, "--out")
+        writable_file(f"{args.out}/breakpoint.json", "--out")
+    result = find_breakpoint(args.scenario, args.backend, args.knob, backend_options(args),
+                             args.target, args.seeds, tuple(args.range) if args.range else None,
+                             _budget(args), args.part, args.out, args.workers, args.scheduler,
+                             command_line())
+    if args.out is not None:
+        atomic_write_text(f"{args.out}/breakpoint.json", json.dumps(result, indent=1))
+    return result

@@ -1,0 +1,181 @@
+"""The eight scenarios of issue 14 as data: what each trains, how it evaluates, and why.
+
+A scenario is a list of **runs**. A run is one training (a world, an arena, a schedule,
+the budget's walks and steps) and the **parts** that evaluate it: a part is one
+evaluation condition (an arena, obstacles or a map, a planner, the time the arrays sit
+idle before it, walks of in-situ relearning before it). The runner makes one sweep task
+per (run x seed) (:mod:`cml_edge.scenarios.runner`); every part of a run evaluates a
+copy of that run's trained model, so a part never sees another part's reads or drift.
+
+Every scenario is seeded (model seeds 0..N-1, evaluation seed 123 for pairs, obstacles
+and robot goals) and runs on any device (``--backend``, ``--preset``, ``--set``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from cml_edge.errors import InputError
+from cml_edge.grid.maps import shipped_maps, shipped_path
+from cml_edge.grid.planning import MAX_STEPS
+from cml_edge.protocol import EVAL_SEED
+
+HOUR = 3600.0
+DAY = 24 * HOUR
+MONTH = 30 * DAY
+YEAR = 365.25 * DAY
+AGES = (("1h", HOUR), ("1d", DAY), ("1mo", MONTH), ("1y", YEAR), ("10y", 10 * YEAR))
+"""The retention scenario's idle times, cumulative from the end of training."""
+RECOVERY_AGE = YEAR
+RECOVERY_WALKS = (0, 1, 2, 5, 10, 20)
+"""K, the walks of in-situ relearning after a year of drift (cumulative: K = 5 is the
+K = 2 model after three more walks)."""
+LARGE_SIDES = (60, 120)
+CLUTTER = (300, 400)
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Walks, steps per walk and evaluation trials of every run of a scenario."""
+
+    walks: int
+    steps: int
+    trials: int
+
+
+BUDGETS = {
+    "full": Budget(100, 900, 100),
+    "quick": Budget(30, 900, 50),
+    "tiny": Budget(3, 100, 6),
+}
+"""``full``: the paper's protocol (100 walks x 900 steps, 100 pairs or goals). ``quick``:
+30 walks (where the float64 model's e_pos reaches 0 on the 30 x 30 arena, README) and
+50 trials, a third of the cost. ``tiny``: a smoke test of the machinery (tests), whose
+numbers mean nothing about a device."""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A named, documented workload: ``runs(budget)`` lists (run id, task parameters)."""
+
+    name: str
+    doc: str
+    """Workload, what is measured, why it tells devices apart."""
+    world: str
+    """``grid`` or ``robot``: which task function runs it."""
+    kind: str
+    """How its runs are made (a key of :data:`_RUNS`)."""
+
+    def runs(self, budget: Budget) -> list[tuple[str, dict[str, Any]]]:
+        return _RUNS[self.kind](budget)
+
+
+def part(name: str, *, size: int | None = None, obstacles: int = 0, map: str | None = None,
+         scen: str | None = None, planner: str = "paper", max_steps: int | None = MAX_STEPS,
+         trials: int = 100, age_s: float = 0.0, relearn_walks: int = 0) -> dict[str, Any]:
+    """One evaluation condition of a grid run (JSON-able; ``max_steps`` None: the map's
+    :func:`~cml_edge.grid.maps.step_budget`)."""
+    return {"name": name, "size": size, "obstacles": obstacles, "map": map, "scen": scen,
+            "planner": planner, "max_steps": max_steps, "trials": trials,
+            "eval_seed": EVAL_SEED, "age_s": age_s, "relearn_walks": relearn_walks}
+
+
+def _grid(arena: int, b: Budget, parts: list[dict[str, Any]], schedule: str = "walk"
+          ) -> dict[str, Any]:
+    return {"arena": arena, "walks": b.walks, "steps": b.steps, "schedule": schedule,
+            "parts": parts}
+
+
+def _paper(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    return [("paper", _grid(30, b, [part("paper", trials=b.trials)]))]
+
+
+def _in_situ(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    return [("in-situ", _grid(30, b, [part("in-situ", trials=b.trials)], schedule="step"))]
+
+
+def _retention(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    parts = [part(name, trials=b.trials, age_s=t) for name, t in AGES]
+    return [("retention", _grid(30, b, parts))]
+
+
+def _clutter(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    parts = [part(f"obst{n}", obstacles=n, planner="escape", trials=b.trials) for n in CLUTTER]
+    return [("clutter", _grid(30, b, parts))]
+
+
+def _maps(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    parts = [part(name, map=str(shipped_path(name)), scen=str(shipped_path(name, ".map.scen")),
+                  planner="escape", max_steps=None) for name in shipped_maps()]
+    return [("maps", _grid(32, b, parts))]  # the shipped maps are 32 x 32
+
+
+def _large(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    return [(f"large{n}", _grid(n, b, [part(f"{n}x{n}", trials=b.trials, max_steps=None)]))
+            for n in LARGE_SIDES]
+
+
+def _recovery(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    parts = [part(f"K{k}", trials=b.trials, age_s=RECOVERY_AGE, relearn_walks=k)
+             for k in RECOVERY_WALKS]
+    return [("recovery", _grid(30, b, parts))]
+
+
+def _robot(b: Budget) -> list[tuple[str, dict[str, Any]]]:
+    return [("robot", {"walks": b.walks, "steps": b.steps, "trials": b.trials,
+                       "eval_seed": EVAL_SEED})]
+
+
+_RUNS = {"paper": _paper, "in-situ": _in_situ, "retention": _retention, "clutter": _clutter,
+         "maps": _maps, "large": _large, "robot": _robot, "recovery": _recovery}
+
+SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
+    Scenario("paper", "The paper's protocol (2.4): train on the empty 30 x 30 arena (random "
+             "exploration, per-walk updates), plan the evaluation seed's pairs with the "
+             "paper's planner in 100 actions. The baseline every other scenario departs "
+             "from; success saturates here, so the fidelity metrics carry the ranking.",
+             "grid", "paper"),
+    Scenario("in-situ", "The paper's protocol with every update applied on the device at "
+             "the step it is computed (schedule step: no digital accumulator summing a "
+             "walk's updates). Each update is one small outer product, so a device with "
+             "coarse levels, pulse noise or asymmetric steps loses what the per-walk sum "
+             "would have kept.", "grid", "in-situ"),
+    Scenario("retention", "Train once (the paper's protocol), then let 1 hour, 1 day, 1 "
+             "month (30 d), 1 year (365.25 d) and 10 years pass (each age a copy of the "
+             "trained model, idle from the end of training) and plan. Drift and accumulated "
+             "read noise act only on devices that have them; a digital array does not "
+             "change.", "grid", "retention"),
+    Scenario("clutter", "Train on the empty arena, plan among 300 and 400 point obstacles "
+             "placed from the evaluation seed, with the escape planner (100 actions). The "
+             "detours need the affordance and utility away from the straight line, where "
+             "small weight errors change the decision.", "grid", "clutter"),
+    Scenario("maps", "Train on the empty 32 x 32 arena, plan the shipped MovingAI maps' "
+             "scenarios (rooms, utrap, maze) with the escape planner (step budget of the "
+             "map). Success is over the connected problems.", "grid", "maps"),
+    Scenario("large", "Train and plan on 60 x 60 and 120 x 120 arenas (the budget's walks "
+             "and steps, not scaled with the area, so the larger arena is explored less; "
+             "step budget 200 and 400). The observation frame spreads over more cells, so "
+             "neighbouring cells differ by less in o and a device's read and weight errors "
+             "are larger against the differences planning must resolve.", "grid", "large"),
+    Scenario("robot", "The continuous wheeled robot (paper 2.5, 3.5) with the CML's three "
+             "arrays on the device: random-walk training on the kinematic simulator "
+             "(heading observation, raw utility, per-walk updates), then drive from the "
+             "base to the evaluation seed's goals (within 0.25 m, 100 actions). "
+             "overhead_mean is the driven path over the straight distance (path_ratio).",
+             "robot", "robot"),
+    Scenario("recovery", "Train (the paper's protocol), let a year pass, then K = 0, 1, 2, "
+             "5, 10, 20 self-supervised walks of in-situ relearning (schedule step, the "
+             "seed's walk streams continued), planning after each K. Reports success "
+             "against K and what the relearning cost on the device (pulses, cells written, "
+             "energy from the arrays' counters and the energy model of budget.py), beside "
+             "an estimate of what a DQN would need to retrain (``dqn_retrain``).",
+             "grid", "recovery"),
+)}
+
+
+def get(name: str) -> Scenario:
+    """The scenario called ``name``; InputError naming the known ones otherwise."""
+    if name not in SCENARIOS:
+        raise InputError(f"unknown scenario {name!r}; allowed: {', '.join(SCENARIOS)}")
+    return SCENARIOS[name]
