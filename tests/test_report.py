@@ -9,6 +9,7 @@ from cml_edge import budget
 from cml_edge.core.cml import CML
 from cml_edge.report import build_report, write_report
 from cml_edge.report.render import fmt
+from cml_edge.report.scorecard import Breakpoint, ScorecardPlan, breakpoint_row
 
 
 def test_paper_counts_from_real_shapes():
@@ -42,11 +43,19 @@ def test_energy_is_counted_with_sources_and_never_guessed():
     assert budget.energy_pj("fp64", {"macs": 10}) == (None, [])
 
 
+# the scorecard's machinery on a smoke-test budget (its numbers mean nothing of a device)
+TINY_CARD = ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {}),
+                                                 ("crossbar-pcm", "crossbar", {"preset": "pcm"})],
+                          scenarios=("paper", "recovery"),
+                          breakpoints=(Breakpoint("float32", "float32", {}, "drift_time"),),
+                          workers=1)
+
+
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     rep = build_report(quick=True, systems=[("float32", "float32", {})],
                        sweeps=[("read noise", "pcm read_noise 0.2", "crossbar",
-                                {"preset": "pcm", "read_noise": 0.2})])
+                                {"preset": "pcm", "read_noise": 0.2})], scorecard=TINY_CARD)
     out = tmp_path_factory.mktemp("rep") / "r"
     write_report(rep, out)
     return rep, out
@@ -56,7 +65,7 @@ def test_schema(report):
     rep, out = report
     data = json.loads((out / "report.json").read_text())
     for key in ("schema_version", "command", "versions", "protocol", "systems", "costs",
-                "sweeps", "generated", "wall_time_s"):
+                "sweeps", "generated", "wall_time_s", "scorecard", "breakpoints", "recovery"):
         assert key in data
     labels = [s["label"] for s in data["systems"]]
     assert labels == ["float32", "DQN-simplified", "DQN-tailored", "DQN-goal-conditioned"]
@@ -67,7 +76,7 @@ def test_schema(report):
             assert key in s
     assert [w["label"] for w in data["sweeps"]] == ["pcm read_noise 0.2"]
     for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png",
-                "sweeps.png"):
+                "sweeps.png", "scorecard.png", "breakpoints.png", "recovery.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
 
 
@@ -111,3 +120,36 @@ def test_report_refuses_a_missing_dqn_results_file(tmp_path, capsys):
     assert main(["report", "--quick", "--out", str(tmp_path / "r"),
                  "--dqn-results", str(tmp_path / "none.json")]) == 2
     assert "no such file" in capsys.readouterr().err and not (tmp_path / "r").exists()
+
+
+def test_scorecard_sections(report):
+    rep, _ = report
+    card = rep["scorecard"]
+    stable = {"device", "scenario", "success_rate", "overhead_mean", "weight_error",
+              "decision_agreement", "seeds"}
+    assert all(stable <= set(r) and r["seeds"] == 2 for r in card)
+    cells = {(r["device"], r["scenario"], r["part"]) for r in card}
+    parts = ["paper"] + [f"K{k}" for k in (0, 1, 2, 5, 10, 20)]
+    assert cells == {(d, "paper" if p == "paper" else "recovery", p)
+                     for d in ("float32", "crossbar-pcm") for p in parts}
+    float32 = {r["part"]: r for r in card if r["device"] == "float32"}
+    assert 0 < float32["paper"]["weight_error"] < 1e-3  # float32 rounding, not zero
+    rec = rep["recovery"]
+    assert {"device", "walks", "success_rate", "pulses", "energy_uJ"} <= set(rec[0])
+    pcm = {r["walks"]: r for r in rec if r["device"] == "crossbar-pcm"}
+    assert sorted(pcm) == [0, 1, 2, 5, 10, 20]
+    assert pcm[0]["pulses"] == 0 and 0 < pcm[1]["pulses"] < pcm[20]["pulses"]
+    assert 0 < pcm[1]["energy_uJ"] < pcm[20]["energy_uJ"]
+    assert all(r["pulses"] == 0 and r["writes"] > 0 for r in rec
+               if r["device"] == "float32" and r["walks"] > 0)
+    (bp,) = rep["breakpoints"]  # the tiny budget fails at the good end: no bracket
+    assert {"device", "knob", "scenario", "value", "target", "seeds"} <= set(bp)
+    assert bp["value"] is None and "does not bracket" in bp["note"]
+
+
+def test_breakpoint_row_bracketed():
+    row = breakpoint_row(Breakpoint("fixed", "fixed", {}, "bits", value_range=(2, 16)),
+                         ScorecardPlan(2, "quick", 2, workers=1))
+    assert row["value"] in [e["value"] for e in row["evaluations"]]
+    ok = {e["value"]: e["success_rate"] >= row["target"] for e in row["evaluations"]}
+    assert ok[row["bracket"][0]] and not ok[row["bracket"][1]]

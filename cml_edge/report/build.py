@@ -39,8 +39,10 @@ from cml_edge.grid.evaluation import (
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.training import TrainConfig
 from cml_edge.protocol import EVAL_SEED
+from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+"""2: the scorecard, break points and recovery curves (issue 14)."""
 N_EXAMPLES = 3
 DQN_RESULTS = Path(__file__).resolve().parents[2] / "hw_reports" / "baselines" / "dqn_results.json"
 
@@ -193,9 +195,12 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                  progress: Callable[[str], None] = lambda m: None,
                  systems: list[tuple[str, str, dict[str, Any]]] | None = None,
                  sweeps: list[tuple[str, str, str, dict[str, Any]]] | None = None,
-                 dqn_results: str | Path = DQN_RESULTS) -> dict[str, Any]:
+                 dqn_results: str | Path = DQN_RESULTS,
+                 scorecard: ScorecardPlan | None = None) -> dict[str, Any]:
     """Everything the report shows, as one JSON-ready dict; the DQN's accuracy and times
-    come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist."""
+    come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist.
+    ``scorecard``: what the scorecard runs (default :meth:`ScorecardPlan.of` ``quick``;
+    :mod:`cml_edge.report.scorecard`)."""
     t0 = time.perf_counter()
     prof = _profile(quick)
     systems = [s for s in (SYSTEMS if systems is None else systems) if s[1] in BACKENDS]
@@ -210,6 +215,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         sweep_rows.append({"figure": figure, "label": label, "backend": backend,
                            "options": opts, **{k: r[k] for k in (
                                "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})
+    card = build_scorecard(scorecard or ScorecardPlan.of(quick), progress)
     return {
         "schema_version": SCHEMA_VERSION,
         "title": "cml-edge hardware-budget report",
@@ -227,6 +233,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                      for k, v in (dqn_data or {}).get("runs", {}).items()},
         "sweeps": sweep_rows,
         "costs": budget.costs_table(),
+        **card,
         "wall_time_s": time.perf_counter() - t0,
     }
 

@@ -109,11 +109,148 @@ def render_markdown(report: dict[str, Any], figures: dict[str, str]) -> str:
                           "overhead mean"],
                          [[s["figure"], s["label"], s["seeds"], s["success_rate"],
                            s["e_pos_mean"], s["overhead_mean"]] for s in report["sweeps"]])]
+    if report.get("scorecard"):
+        parts += ["", *_scorecard_markdown(report)]
     parts += ["", "## Energy constants", "",
               _table(["constant", "pJ", "per", "source"],
                      [[c["name"], c["pj"], c["per"], c["source"]] for c in report["costs"]])]
     parts += ["", "## Figures", ""] + [f"![{name}]({file})" for name, file in figures.items()]
     return "\n".join(parts) + "\n"
+
+
+def _columns(rows: list[dict[str, Any]]) -> list[tuple[str, str]]:
+    """The (scenario, part) columns of the scorecard, in the order they were run."""
+    return list(dict.fromkeys((r["scenario"], r["part"]) for r in rows))
+
+
+def _devices(rows: list[dict[str, Any]]) -> list[str]:
+    return list(dict.fromkeys(r["device"] for r in rows))
+
+
+def _grid(rows: list[dict[str, Any]], key: str) -> dict[tuple[str, str, str], Any]:
+    return {(r["device"], r["scenario"], r["part"]): r[key] for r in rows}
+
+
+def _scorecard_markdown(report: dict[str, Any]) -> list[str]:
+    rows, plan = report["scorecard"], report["scorecard_plan"]
+    cols, devices = _columns(rows), _devices(rows)
+    parts = [
+        "## The scorecard: every device on every scenario (issue 14)", "",
+        f"Each device runs each scenario (`cml-edge scenario NAME`) on {plan['seeds']} model "
+        f"seeds at the `{plan['budget']}` budget; a column is one evaluation condition of a "
+        "scenario (scenario: part). Success saturates on the easy conditions, so the "
+        "decision agreement (the fraction of planning decisions at which the float64 twin, "
+        "trained on the same walks from the same seed, picks the same move) and the weight "
+        "error (the three matrices' mean relative Frobenius error against that twin) carry "
+        "the ranking there. Seed spreads are in report.json.",
+    ]
+    for title, key in (("Success rate", "success_rate"),
+                       ("Decision agreement with the float64 twin", "decision_agreement"),
+                       ("Weight error against the float64 twin", "weight_error"),
+                       ("Mean path overhead (successes)", "overhead_mean")):
+        grid = _grid(rows, key)
+        parts += ["", f"### {title}", "",
+                  _table(["device"] + [f"{sc}: {p}" for sc, p in cols],
+                         [[d] + [grid.get((d, sc, p)) for sc, p in cols] for d in devices])]
+    bps = report["breakpoints"]
+    parts += ["", "## Break points", "",
+              f"The knob value at which the scenario's success (its worst part) last meets "
+              f"the target, by bisection on a 17-point seeded grid from the knob's good end "
+              f"(`cml-edge breakpoint`), {plan['breakpoint_seeds']} seeds, "
+              f"`{plan['budget']}` budget. n/a: the range does not bracket the target; the "
+              "note gives both ends' success.", "",
+              _table(["device", "knob", "scenario", "target", "value", "bracket",
+                      "evaluations", "note"],
+                     [[b["device"], b["knob"], b["scenario"], b["target"], b["value"],
+                       " .. ".join(fmt(v) for v in b["bracket"]) if b.get("bracket") else NA,
+                       b.get("n_evaluations"), b.get("note", "")] for b in bps])]
+    rec = report["recovery"]
+    if rec:
+        parts += ["", "## Recovery: relearning on the chip after a year of drift", "",
+                  "K self-supervised walks of in-situ relearning (the local rule, each update "
+                  "applied on the device) after a year idle; what the relearning cost the "
+                  "arrays (seed means; energy n/a where the technology has no sourced "
+                  "figure).", "",
+                  _table(["device", "walks K", "success", "decision agreement",
+                          "weight error", "pulses", "cells written", "energy (uJ)"],
+                         [[r["device"], r["walks"], r["success_rate"],
+                           r["decision_agreement"], r["weight_error"], r["pulses"],
+                           r["writes"], r["energy_uJ"]] for r in rec])]
+        dqn = report.get("dqn_retrain") or {}
+        if dqn.get("available"):
+            parts += ["", "A DQN cannot relearn this way on a chip: it needs its replay "
+                      "buffer and gradient steps. Its cost to retrain, estimated (no DQN "
+                      f"trained; {dqn['method']}):", "",
+                      _table(["DQN configuration", "bound", "environment steps",
+                              "gradient steps", "MACs", "energy (uJ)"],
+                             [[c["config"], bound, c[key]["env_steps"],
+                               c[key]["gradient_steps"], c[key]["macs"], c[key]["energy_uJ"]]
+                              for c in dqn["configs"]
+                              for bound, key in (("lower: replay refill", "replay_refill"),
+                                                 ("upper: from scratch", "to_converge"))
+                              if c.get(key)])]
+    return parts
+
+
+def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
+    """The heat maps of devices x scenarios, the break-point bars, the recovery curves."""
+    rows = report["scorecard"]
+    cols, devices = _columns(rows), _devices(rows)
+    fig, axes = plt.subplots(1, 2, figsize=(max(10, 0.9 * len(cols)), 0.45 * len(devices) + 3),
+                             sharey=True)
+    for ax, (key, title) in zip(axes, (("success_rate", "success rate"),
+                                       ("decision_agreement", "decision agreement"))):
+        grid = _grid(rows, key)
+        m = np.array([[np.nan if grid.get((d, sc, p)) is None else grid[(d, sc, p)]
+                       for sc, p in cols] for d in devices], dtype=float)
+        im = ax.imshow(m, vmin=0, vmax=1, cmap="RdYlGn", aspect="auto")
+        for (i, j), v in np.ndenumerate(m):
+            if np.isfinite(v):
+                ax.text(j, i, f"{v:.2f}", ha="center", va="center", fontsize=6)
+        ax.set_xticks(range(len(cols)))
+        ax.set_xticklabels([f"{sc}: {p}" for sc, p in cols], rotation=70, fontsize=7)
+        ax.set_yticks(range(len(devices)))
+        ax.set_yticklabels(devices, fontsize=7)
+        ax.set_title(title)
+        fig.colorbar(im, ax=ax, fraction=0.03)
+    save(fig, "scorecard.png", "scorecard: devices x scenarios")
+
+    bps = report["breakpoints"]
+    knobs = list(dict.fromkeys(b["knob"] for b in bps))
+    if knobs:
+        fig, axes = plt.subplots(1, len(knobs), figsize=(2.6 * len(knobs), 3.2), squeeze=False)
+        for ax, knob in zip(axes[0], knobs):
+            sel = [b for b in bps if b["knob"] == knob]
+            vals = [b["value"] if b["value"] is not None else 0 for b in sel]
+            bars = ax.bar(range(len(sel)), vals, color=["tab:purple" if b["value"] is not None
+                                                        else "0.8" for b in sel])
+            for bar, b in zip(bars, sel):
+                if b["value"] is None:
+                    ax.text(bar.get_x() + bar.get_width() / 2, 0, "n/a", ha="center",
+                            va="bottom", fontsize=6)
+            ax.set_xticks(range(len(sel)))
+            ax.set_xticklabels([b["device"] for b in sel], rotation=60, fontsize=6)
+            if knob in ("levels", "drift_time") and any(v > 0 for v in vals):
+                ax.set_yscale("log")
+            ax.set_title(f"{knob} at success {fmt(sel[0]['target'])}", fontsize=8)
+        save(fig, "breakpoints.png", "break points")
+
+    rec = report["recovery"]
+    if rec:
+        fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
+        for device in _devices(rec):
+            r = [x for x in rec if x["device"] == device]
+            k = [x["walks"] for x in r]
+            axes[0].plot(k, [x["success_rate"] for x in r], "-o", ms=3, label=device)
+            axes[1].plot(k, [x["decision_agreement"] for x in r], "-o", ms=3)
+            if all(x["energy_uJ"] is not None for x in r):
+                axes[2].plot(k, [x["energy_uJ"] for x in r], "-o", ms=3)
+        for ax, name in zip(axes, ("success rate", "decision agreement",
+                                   "relearning energy (uJ)")):
+            ax.set_xlabel("walks of in-situ relearning after a year (K)")
+            ax.set_ylabel(name)
+        axes[0].legend(fontsize=6)
+        save(fig, "recovery.png", "recovery after a year of drift")
 
 
 def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
@@ -207,4 +344,6 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
         ax.set_title(s["label"], fontsize=8)
         ax.tick_params(labelsize=6)
     save(fig, "trajectories.png", "example trajectories")
+    if report.get("scorecard"):
+        _scorecard_figures(report, plt, save)
     return files

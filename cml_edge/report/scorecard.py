@@ -1,0 +1,164 @@
+"""The scorecard of the report (issue 14): every device on every scenario, break points,
+recovery curves.
+
+Read top to bottom: :func:`build_scorecard` runs each scenario of
+:data:`cml_edge.scenarios.SCENARIOS` on each device of the report (the systems of
+:func:`cml_edge.backends.report_systems`, the earlier crossbar presets under their new
+names among them) through :func:`cml_edge.scenarios.run_scenario` (the sweep engine: a
+local pool, one worker per core), then each break point of :data:`BREAKPOINTS`
+(:func:`cml_edge.scenarios.breakpoint.find_breakpoint`), and returns the three lists the
+report keeps under stable keys:
+
+- ``scorecard``: one row per device x scenario x part (a scenario's evaluation
+  condition, e.g. retention's ``1y``): ``device``, ``scenario``, ``part``,
+  ``success_rate``, ``overhead_mean``, ``weight_error`` (the seed mean of the three
+  matrices' mean relative error against the float64 twin), ``decision_agreement`` (seed
+  mean), ``seeds``, with the seed spreads beside them;
+- ``breakpoints``: ``device``, ``knob``, ``scenario``, ``value`` (None when the knob's
+  range does not bracket the target: ``note`` then says why, with both ends' success),
+  ``target``, ``seeds``, and every evaluation the bisection took;
+- ``recovery``: one row per device x K (walks of in-situ relearning after a year of
+  drift): ``device``, ``walks``, ``success_rate``, ``pulses``, ``energy_uJ`` (seed means
+  of what the relearning cost), with ``writes`` and ``decision_agreement``.
+
+Every number is measured here, on the seeds listed in the rows; nothing is carried over
+from an earlier run.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from cml_edge.backends import report_systems
+from cml_edge.errors import InputError
+from cml_edge.scenarios import SCENARIOS, run_scenario
+from cml_edge.scenarios.breakpoint import find_breakpoint
+
+
+@dataclass(frozen=True)
+class Breakpoint:
+    """One break point of the report: ``knob`` of device ``device`` (a label) on
+    ``backend`` with ``options``, for ``scenario``; ``value_range`` None: the knob's."""
+
+    device: str
+    backend: str
+    options: dict[str, Any]
+    knob: str
+    scenario: str = "paper"
+    value_range: tuple[float, float] | None = None
+
+
+CROSSBAR_KNOBS = ("read_noise", "prog_noise", "levels", "drift_time", "stuck", "adc_bits")
+BREAKPOINTS: tuple[Breakpoint, ...] = (
+    *[Breakpoint(f"crossbar-{p}", "crossbar", {"preset": p}, knob)
+      for p in ("pcm", "reram") for knob in CROSSBAR_KNOBS],
+    *[Breakpoint("crossbar-ideal", "crossbar", {"preset": "ideal"}, knob)
+      for knob in ("read_noise", "levels", "stuck", "adc_bits")],
+    Breakpoint("fixed", "fixed", {}, "bits"),
+    Breakpoint("loihi2", "loihi2", {}, "bits", value_range=(1, 8)),
+)
+"""The report's break points, all on the paper scenario at target 0.95: the six crossbar
+knobs on the calibrated pcm and reram presets, the four that apply to the ideal crossbar,
+the mantissa bits of the fixed-point array (int8's other settings) and Loihi 2's weight bits."""
+TARGET = 0.95
+
+
+@dataclass(frozen=True)
+class ScorecardPlan:
+    """What the scorecard runs: devices (label, backend, options), scenarios, the
+    scenario budget (:data:`cml_edge.scenarios.BUDGETS`), seeds, break points."""
+
+    seeds: int
+    budget: str
+    breakpoint_seeds: int
+    devices: list[tuple[str, str, dict[str, Any]]] = field(default_factory=report_systems)
+    scenarios: tuple[str, ...] = tuple(SCENARIOS)
+    breakpoints: tuple[Breakpoint, ...] = BREAKPOINTS
+    workers: int | None = None
+
+    @classmethod
+    def of(cls, quick: bool) -> ScorecardPlan:
+        """The reference plan (3 model seeds at the full budget, the paper's protocol;
+        break points on 3 as well: ten devices x eight scenarios is about half an hour on
+        two cores) or the quick one (2 seeds at the quick budget, every section kept)."""
+        return cls(2, "quick", 2) if quick else cls(3, "full", 3)
+
+
+def _mean(stats: dict[str, Any] | None) -> float | None:
+    return None if stats is None else stats["mean"]
+
+
+def _std(stats: dict[str, Any] | None) -> float | None:
+    return None if stats is None else stats["std"]
+
+
+def scorecard_rows(device: str, result: dict[str, Any]) -> list[dict[str, Any]]:
+    """The scorecard rows of one scenario result (module docstring)."""
+    rows = []
+    for p in result["parts"]:
+        we = p["weight_error"]["matrix_mean"]
+        rows.append({
+            "device": device, "scenario": result["scenario"], "part": p["part"],
+            "success_rate": p["success_rate"], "overhead_mean": p["overhead_mean"],
+            "weight_error": _mean(we), "weight_error_std": _std(we),
+            "decision_agreement": _mean(p["decision_agreement"]),
+            "decision_agreement_std": _std(p["decision_agreement"]),
+            "success_rate_std": _std(p["success_rate_seeds"]),
+            "seeds": result["seeds"], "budget": result["budget"]})
+    return rows
+
+
+def recovery_rows(device: str, result: dict[str, Any]) -> list[dict[str, Any]]:
+    """The recovery curve of one device from its recovery scenario result."""
+    return [{"device": device, "walks": int(p["relearn_walks"]),
+             "success_rate": p["success_rate"], "pulses": _mean(p["pulses"]),
+             "writes": _mean(p["writes"]), "energy_uJ": _mean(p["energy_uJ"]),
+             "decision_agreement": _mean(p["decision_agreement"]),
+             "weight_error": _mean(p["weight_error"]["matrix_mean"]),
+             "seeds": result["seeds"]} for p in result["parts"]]
+
+
+def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan) -> dict[str, Any]:
+    """One break point, or the reason there is none (the range does not bracket)."""
+    row: dict[str, Any] = {"device": bp.device, "backend": bp.backend, "options": bp.options,
+                           "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
+                           "seeds": plan.breakpoint_seeds, "budget": plan.budget}
+    try:
+        res = find_breakpoint(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
+                              plan.breakpoint_seeds, bp.value_range, plan.budget,
+                              workers=plan.workers)
+    except InputError as err:  # not bracketed: a finding, reported as measured
+        return {**row, "value": None, "note": str(err)}
+    return {**row, "value": res["value"], "bracket": res["bracket"], "good": res["good"],
+            "range": res["range"], "evaluations": res["evaluations"],
+            "n_evaluations": res["n_evaluations"]}
+
+
+def build_scorecard(plan: ScorecardPlan, progress: Callable[[str], None] = lambda m: None
+                    ) -> dict[str, Any]:
+    """The ``scorecard``, ``breakpoints`` and ``recovery`` sections (module docstring),
+    and the plan they were measured with (``scorecard_plan``)."""
+    scorecard: list[dict[str, Any]] = []
+    recovery: list[dict[str, Any]] = []
+    dqn_retrain = None
+    for label, backend, options in plan.devices:
+        for name in plan.scenarios:
+            progress(f"scorecard {label}: {name}")
+            res = run_scenario(name, backend, options, plan.seeds, plan.budget,
+                               workers=plan.workers)
+            scorecard += scorecard_rows(label, res)
+            if name == "recovery":
+                recovery += recovery_rows(label, res)
+                dqn_retrain = res["dqn_retrain"]
+    breakpoints = []
+    for bp in plan.breakpoints:
+        progress(f"break point {bp.device}: {bp.knob}")
+        breakpoints.append(breakpoint_row(bp, plan))
+    return {"scorecard": scorecard, "breakpoints": breakpoints, "recovery": recovery,
+            "dqn_retrain": dqn_retrain,
+            "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,
+                               "breakpoint_seeds": plan.breakpoint_seeds,
+                               "target": TARGET, "scenarios": list(plan.scenarios),
+                               "devices": [d[0] for d in plan.devices]}}
