@@ -64,6 +64,15 @@ def test_yield_arithmetic():
     assert dist["e_pos_mean"]["mean"] == pytest.approx(4.0 / 3)  # None left out
     assert pooled["chips"]["success_rate"]["min"] == 0.5
     assert chip_means([{"seed": 0, "x": 1.0}, {"seed": 1, "x": 3.0}]) == {"x": 2.0}
+    nested = [{"seed": s, "weight_error": {"matrix_mean": w, "W_q": None}}
+              for s, w in ((0, 0.2), (1, 0.4))]
+    assert chip_means(nested) == {"weight_error.matrix_mean": pytest.approx(0.3)}
+
+
+def test_chips_carry_the_weight_error_distribution():
+    pooled = pool_chips([chip_task(c, SMALL) for c in (0, 1)], 0.5)
+    dist = pooled["chips"]["distribution"]["weight_error.matrix_mean"]
+    assert 0 < dist["min"] <= dist["max"] and dist["min"] != dist["max"]
 
 
 @pytest.mark.parametrize("n, target", [(0, 0.9), (-1, 0.9), (2, 1.5), (2, -0.1),

@@ -18,8 +18,9 @@ seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
 Each chip is one task of the sweep engine (:mod:`cml_edge.sweep`: local pool or Dask,
 resumable, one atomic file per chip), running :func:`cml_edge.grid.evaluation.run_protocol`
 for its chip seed. :func:`pool_chips` pools the per-chip summaries generically: every
-numeric key of the protocol's per-seed summaries (the success rate, e_pos, ...; a key
-that a later release adds, such as a weight error, is pooled as it appears) gets its
+numeric key of the protocol's per-seed summaries (the success rate, e_pos, the
+decision agreement, ...; a nested record's as ``key.sub``, so the weight error against
+the float64 twin is ``weight_error.matrix_mean``) gets its
 distribution over chips (each chip's mean over its models); the **yield** is the
 fraction of chips whose success rate is at least the yield target.
 """
@@ -84,13 +85,26 @@ def _stats(values: Sequence[float]) -> dict[str, float]:
     return out
 
 
+def _numeric(record: dict[str, Any]) -> dict[str, float]:
+    """The numeric values of a per-seed record, a nested record's as ``key.sub``
+    (``weight_error.matrix_mean``)."""
+    out = {}
+    for k, v in record.items():
+        if isinstance(v, dict):
+            out.update({f"{k}.{sub}": x for sub, x in _numeric(v).items()})
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and k != "seed":
+            out[k] = v
+    return out
+
+
 def chip_means(per_seed: Sequence[dict[str, Any]]) -> dict[str, float]:
-    """A chip's mean over its models of every numeric per-seed key (None values left out)."""
-    keys = dict.fromkeys(k for s in per_seed for k, v in s.items() if k != "seed"
-                         and isinstance(v, (int, float)) and not isinstance(v, bool))
+    """A chip's mean over its models of every numeric per-seed key, nested ones as
+    ``key.sub`` (None values left out)."""
+    flat = [_numeric(s) for s in per_seed]
+    keys = dict.fromkeys(k for s in flat for k in s)
     out = {}
     for k in keys:
-        vals = [s[k] for s in per_seed if isinstance(s.get(k), (int, float))]
+        vals = [s[k] for s in flat if k in s]
         if vals:
             out[k] = float(np.mean(vals))
     return out
