@@ -241,3 +241,53 @@ def sigmoid_lut(z):
     elif t > half - 1:
         t = half - 1
     return math.ldexp(float(SIGMOID_LUT[int(t) + half]), -SIGMOID_OUT_BITS)
+
+
+NARROW = 16
+"""Integer matrices with at most this many columns are read column by column (W_q's two
+inputs, or a one-hot pre), wider ones row by row."""
+
+
+@njit(cache=True, inline="always")
+def int_matvec(w, s, sums):
+    """sums = w s in int64 (the exact integer MAC of a fixed-point or Loihi 2 read, in the
+    order both devices sum); returns the number of nonzero inputs."""
+    rows, cols = w.shape
+    nnz = 0
+    if cols <= NARROW:
+        for i in range(rows):
+            sums[i] = 0
+        for j in range(cols):
+            v = s[j]
+            if v == 0:
+                continue
+            nnz += 1
+            for i in range(rows):
+                sums[i] += w[i, j] * v
+    else:
+        for j in range(cols):
+            if s[j] != 0:
+                nnz += 1
+        for i in range(rows):
+            total = np.int64(0)
+            for j in range(cols):
+                total += w[i, j] * s[j]
+            sums[i] = total
+    return nnz
+
+
+@njit(cache=True, inline="always")
+def int_rmatvec(w, s, sums):
+    """sums = w^T s in int64 (as :func:`int_matvec`); returns the nonzero inputs."""
+    rows, cols = w.shape
+    for j in range(cols):
+        sums[j] = 0
+    nnz = 0
+    for i in range(rows):
+        v = s[i]
+        if v == 0:
+            continue
+        nnz += 1
+        for j in range(cols):
+            sums[j] += w[i, j] * v
+    return nnz

@@ -59,9 +59,12 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.quant import (
+    NARROW,
     NEAREST,
     STOCHASTIC,
     SaturationError,
+    int_matvec,
+    int_rmatvec,
     quantize_vector,
     saturate,
     shift_round,
@@ -76,7 +79,6 @@ ACC_WRITES, WEIGHT_WRITES, CELLS_CHANGED, COMMITS, SATURATIONS = 6, 7, 8, 9, 10
 ACC_SATURATIONS, MAC_SATURATIONS, RNG_DRAWS, BYTES_READ, BYTES_WRITTEN = 11, 12, 13, 14, 15
 N_COUNTERS = 16
 
-NARROW = 16  # matrices with at most this many columns are walked column by column
 NEURON_BITS = 24  # the neuron input a read's sum is shifted into
 BIG_SHIFT = np.int64(1) << np.int64(62)
 
@@ -130,26 +132,7 @@ def fixed_matvec(state, x, out):
     sums = state.sums
     rows, cols = m.shape
     ex = quantize_vector(x, cols, p.act_qmax, xq)
-    nnz = 0
-    if cols <= NARROW:
-        for i in range(rows):
-            sums[i] = 0
-        for j in range(cols):
-            v = xq[j]
-            if v == 0:
-                continue
-            nnz += 1
-            for i in range(rows):
-                sums[i] += m[i, j] * v
-    else:
-        for j in range(cols):
-            if xq[j] != 0:
-                nnz += 1
-        for i in range(rows):
-            s = np.int64(0)
-            for j in range(cols):
-                s += m[i, j] * xq[j]
-            sums[i] = s
+    nnz = int_matvec(m, xq, sums)
     sats = _emit(state, sums, rows, ex, p.mv_check, p.mv_shift, out, p.strict)
     done = nnz * rows
     c = state.counters
@@ -168,16 +151,7 @@ def fixed_rmatvec(state, y, out):
     sums = state.sums
     rows, cols = m.shape
     ey = quantize_vector(y, rows, p.act_qmax, yq)
-    for j in range(cols):
-        sums[j] = 0
-    nnz = 0
-    for i in range(rows):
-        v = yq[i]
-        if v == 0:
-            continue
-        nnz += 1
-        for j in range(cols):
-            sums[j] += m[i, j] * v
+    nnz = int_rmatvec(m, yq, sums)
     sats = _emit(state, sums, cols, ey, p.rmv_check, p.rmv_shift, out, p.strict)
     done = nnz * cols
     c = state.counters

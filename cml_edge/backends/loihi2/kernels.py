@@ -84,12 +84,15 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.quant import (
+    NARROW,
     SIGMOID_IN_FRAC_BITS,
     SIGMOID_INDEX_BITS,
     SIGMOID_LUT,
     SIGMOID_OUT_BITS,
     SaturationError,
     exponent_for,
+    int_matvec,
+    int_rmatvec,
     quantize_vector,
 )
 from cml_edge.errors import InputError
@@ -115,7 +118,6 @@ U_MASK = (np.int64(1) << np.int64(24)) - np.int64(1)
 ACT_SHIFT = 6  # PyLifModelBitAcc act_shift: a_in << 6
 WEIGHT_BITS = 9  # W_WEIGHTS_S: a learned weight's storage bits
 ACC_BITS = 16  # W_ACCUMULATOR_S
-NARROW = 16  # matrices with at most this many columns are read column by column
 SHARED = 0  # index of "shared" in config.DRAWS
 SAFE = 0  # index of "safe" in config.PAYLOAD_SCALES
 EXACT = 1  # index of "exact" in config.TERMS
@@ -223,26 +225,7 @@ def loihi2_matvec(state, x, out):
     sums = state.sums
     rows, cols = w.shape
     e = encode(x, cols, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
-    nnz = 0
-    if cols <= NARROW:
-        for i in range(rows):
-            sums[i] = 0
-        for j in range(cols):
-            v = s[j]
-            if v == 0:
-                continue
-            nnz += 1
-            for i in range(rows):
-                sums[i] += w[i, j] * v
-    else:
-        for j in range(cols):
-            if s[j] != 0:
-                nnz += 1
-        for i in range(rows):
-            total = np.int64(0)
-            for j in range(cols):
-                total += w[i, j] * s[j]
-            sums[i] = total
+    nnz = int_matvec(w, s, sums)
     wraps = _emit(state, sums, rows, e, out)
     _count_read(state, MATVECS, nnz, rows, wraps)
 
@@ -255,16 +238,7 @@ def loihi2_rmatvec(state, y, out):
     sums = state.sums
     rows, cols = w.shape
     e = encode(y, rows, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
-    for j in range(cols):
-        sums[j] = 0
-    nnz = 0
-    for i in range(rows):
-        v = s[i]
-        if v == 0:
-            continue
-        nnz += 1
-        for j in range(cols):
-            sums[j] += w[i, j] * v
+    nnz = int_rmatvec(w, s, sums)
     wraps = _emit(state, sums, cols, e, out)
     _count_read(state, RMATVECS, nnz, cols, wraps)
 
