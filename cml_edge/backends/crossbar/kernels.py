@@ -199,8 +199,8 @@ def _pulse_train(p, bl, key, ctr):
 
 
 @njit(cache=True)
-def _convert_inputs(x, xs, n_in, dac):
-    """xs = DAC(x / max|x|); returns (max|x|, nonzero inputs, sum xs^2)."""
+def _convert_inputs(x, xs, n_in, dac, need_sq):
+    """xs = DAC(x / max|x|); returns (max|x|, nonzero inputs, sum xs^2 if ``need_sq``)."""
     xmax = 0.0
     for j in range(n_in):
         a = abs(x[j])
@@ -208,27 +208,31 @@ def _convert_inputs(x, xs, n_in, dac):
             xmax = a
     if not xmax > 0.0:
         return xmax, 0, 0.0
-    nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax)
+    nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax, need_sq)
     return xmax, nnz, sq
 
 
 @njit(cache=True)
-def _quantise_inputs(x, xs, n_in, dac, inv):
-    """xs = DAC(x inv); returns (nonzero inputs, sum xs^2)."""
+def _quantise_inputs(x, xs, n_in, dac, inv, need_sq):
+    """xs = DAC(x inv); returns (nonzero inputs, sum xs^2 in index order if ``need_sq``,
+    else 0: only the per-device read noise needs it, and it is a sequential sum)."""
+    nnz = 0
     if dac > 0.0:
         inv_dac = 1.0 / dac
         for j in range(n_in):
             v = x[j] * inv
-            xs[j] = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac
+            q = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac
+            xs[j] = q
+            nnz += q != 0.0
     else:
         for j in range(n_in):
-            xs[j] = x[j] * inv
-    nnz = 0
+            q = x[j] * inv
+            xs[j] = q
+            nnz += q != 0.0
     sq = 0.0
-    for j in range(n_in):
-        v = xs[j]
-        nnz += v != 0.0
-        sq += v * v
+    if need_sq:
+        for j in range(n_in):
+            sq += xs[j] * xs[j]
     return nnz, sq
 
 
@@ -343,72 +347,70 @@ def _convert_outputs_var(buf, var, out, n_out, g_min, g_max, adc, bound, base, w
     return saturated
 
 
-@njit(cache=True, inline="always")
-def _read_pass(state, out, transposed, n_out, div, nnz, sq):
-    """One analog pass of a read whose inputs (divided by ``div``) are in xbuf: steps 2-5;
-    returns the saturated outputs."""
-    P = state.params
-    _mac(state.Gp, state.Gm, state.xbuf, state.ybuf, transposed)
-    rn = P.read_noise
-    on = P.out_noise
-    sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
-    start = state.rng[1]
-    if P.read_noise_pcm > 0.0:
-        _abs_w_x2(state.Gp, state.Gm, state.xbuf, state.vbuf, transposed,
-                  1.0 / (P.g_max - P.g_min))
-        saturated = _convert_outputs_var(state.ybuf, state.vbuf, out, n_out, P.g_min, P.g_max,
-                                         P.adc_step, P.adc_bound, sigma, P.read_noise_pcm,
-                                         P.w_max * div * state.alpha[0], state.rng)
-    else:
-        saturated = _convert_outputs(state.ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
-                                     P.adc_bound, sigma, P.w_max * div * state.alpha[0],
-                                     state.rng)
-    c = state.counters
-    c[RNG_DRAWS] += np.int64(state.rng[1] - start)
-    c[ANALOG_MACS] += nnz * n_out
-    c[DAC_CONVERSIONS] += nnz
-    c[ADC_CONVERSIONS] += n_out
-    c[ADC_SATURATIONS] += saturated
-    return saturated
-
-
-@njit(cache=True, inline="always")
-def _read(state, x, out, transposed):
+@njit(cache=True)
+def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed, kind):
     """out = W x (or W^T x) as the array reads it (module docstring, steps 1-5, and the
-    bound management's re-reads)."""
-    P = state.params
-    rows, cols = state.Gp.shape
+    bound management's re-reads), counted as a read of ``kind`` (a counter index; -1: a
+    calibration read, counted by its caller). The state's arrays come as arguments: a
+    kernel that reads them from the state tuple pays their reference counts at every read
+    (issue 15)."""
+    if kind >= 0:
+        counters[kind] += 1
+    rows, cols = Gp.shape
     n_in = rows if transposed else cols
     n_out = cols if transposed else rows
-    xmax, nnz, sq = _convert_inputs(x, state.xbuf, n_in, P.dac_step)
+    rn = P.read_noise
+    on = P.out_noise
+    xmax, nnz, sq = _convert_inputs(x, xbuf, n_in, P.dac_step, rn != 0.0)
     if not xmax > 0.0:  # no input drives the array: nothing is read
         for i in range(n_out):
             out[i] = 0.0 if xmax == 0.0 else math.nan
         return
-    # one call site of the inlined pass (two cost the whole read ~15%: issue 15)
     div = xmax
     passes = 0
     while True:
         if passes > 0:  # a re-read: the input halved again (aihwkit ITERATIVE)
             div = div * 2.0
-            nnz, sq = _quantise_inputs(x, state.xbuf, n_in, P.dac_step, 1.0 / div)
-            state.counters[BM_REREADS] += 1
-        saturated = _read_pass(state, out, transposed, n_out, div, nnz, sq)
+            nnz, sq = _quantise_inputs(x, xbuf, n_in, P.dac_step, 1.0 / div, rn != 0.0)
+            counters[BM_REREADS] += 1
+        _mac(Gp, Gm, xbuf, ybuf, transposed)
+        sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
+        start = rng[1]
+        scale = P.w_max * div * alpha[0]
+        if P.read_noise_pcm > 0.0:
+            _abs_w_x2(Gp, Gm, xbuf, vbuf, transposed, 1.0 / (P.g_max - P.g_min))
+            saturated = _convert_outputs_var(ybuf, vbuf, out, n_out, P.g_min, P.g_max,
+                                             P.adc_step, P.adc_bound, sigma, P.read_noise_pcm,
+                                             scale, rng)
+        else:
+            saturated = _convert_outputs(ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
+                                         P.adc_bound, sigma, scale, rng)
+        counters[RNG_DRAWS] += np.int64(rng[1] - start)
+        counters[ANALOG_MACS] += nnz * n_out
+        counters[DAC_CONVERSIONS] += nnz
+        counters[ADC_CONVERSIONS] += n_out
+        counters[ADC_SATURATIONS] += saturated
         passes += 1
         if P.bound_management == 0 or saturated == 0 or passes >= P.bm_passes:
             return
 
 
 @njit(cache=True, inline="always")
+def read(state, x, out, transposed, kind):
+    """:func:`_read` on the state's arrays (one statement: anything else done with
+    ``state`` in the same kernel costs the reference counts back)."""
+    _read(state.Gp, state.Gm, state.xbuf, state.ybuf, state.vbuf, state.rng, state.alpha,
+          state.counters, state.params, x, out, transposed, kind)
+
+
+@njit(cache=True, inline="always")
 def xbar_matvec(state, x, out):
-    _read(state, x, out, False)
-    state.counters[MATVECS] += 1
+    read(state, x, out, False, MATVECS)
 
 
 @njit(cache=True, inline="always")
 def xbar_rmatvec(state, y, out):
-    _read(state, y, out, True)
-    state.counters[RMATVECS] += 1
+    read(state, y, out, True, RMATVECS)
 
 
 @njit(cache=True, inline="always")
@@ -498,21 +500,20 @@ def _move_model(g, up, s, z, lo, hi, P):
     return min(max(g, lo), hi)
 
 
-@njit(cache=True)
-def _pulse_device(state, G, d, i, j, up, z, w):
+@njit(cache=True, inline="always")
+def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
     """Device d of pair (i, j), at apparent conductance G, after one pulse; with write
     noise, the pulse moves the hidden state G - wn and a fresh offset w write_noise dG
     is read on top of it."""
-    P = state.params
-    s = state.step[2 * d, i, j] if up else state.step[2 * d + 1, i, j]
-    h = G - state.wn[d, i, j] if P.write_noise > 0.0 else G
+    s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
+    h = G - wn[d, i, j] if P.write_noise > 0.0 else G
     if P.step_model == STEP_BOUNDS:
         h = _move(h, up, s, z, P)
     else:
-        h = _move_model(h, up, s, z, state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j], P)
+        h = _move_model(h, up, s, z, bnd[2 * d, i, j], bnd[2 * d + 1, i, j], P)
     if P.write_noise > 0.0:
         G = min(max(h + P.write_noise * P.dG * w, P.g_min), P.g_max)
-        state.wn[d, i, j] = G - h
+        wn[d, i, j] = G - h
         return G
     return h
 
@@ -527,15 +528,18 @@ def nu_of(g, z, P):
 
 
 @njit(cache=True, inline="always")
-def _written(state, d, i, j, g):
+def _written(age, rn, nu, nu_z, P, d, i, j, g):
     """Bookkeeping of a write of device d of pair (i, j) to g: its drift clock restarts,
-    its accumulated read noise is gone, its drift exponent follows g (``drift_nu_g``)."""
-    P = state.params
-    state.age[d, i, j] = 0.0
+    its accumulated read noise is gone, its drift exponent follows g (``drift_nu_g``).
+
+    The write kernels take the state's arrays as arguments, read from the state once per
+    kernel: a ``state.field`` inside a loop costs reference counts on every pass (issue
+    15: the per-walk commit was 5x slower that way)."""
+    age[d, i, j] = 0.0
     if P.rn1f > 0.0:
-        state.rn[d, i, j] = 0.0
+        rn[d, i, j] = 0.0
     if P.drift_nu_g != 0:
-        state.nu[d, i, j] = nu_of(g, state.nu_z[d, i, j], P)
+        nu[d, i, j] = nu_of(g, nu_z[d, i, j], P)
 
 
 @njit(cache=True)
@@ -556,12 +560,9 @@ def set_pulses(target, P):
 
 
 @njit(cache=True)
-def _refresh_pair(state, i, j, key, ctr):
+def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key, ctr):
     """Refresh pair (i, j) if it is saturated (``refresh``): RESET both devices, then
     write-verify the pair's difference onto the device that was larger."""
-    P = state.params
-    Gp = state.Gp
-    Gm = state.Gm
     rng = P.g_max - P.g_min
     up_ = (Gp[i, j] - P.g_min) / rng
     um = (Gm[i, j] - P.g_min) / rng
@@ -577,38 +578,34 @@ def _refresh_pair(state, i, j, key, ctr):
             target = P.g_min + diff
         elif d == 1 and diff < 0.0:
             target = P.g_min - diff
-        if state.stuck[d, i, j] != OK:
+        if stuck[d, i, j] != OK:
             continue
-        G, ctr = _program_device(target, 0.0, P, key, ctr, state.bnd[2 * d, i, j],
-                                 state.bnd[2 * d + 1, i, j])
+        G, ctr = _program_device(target, 0.0, P, key, ctr, bnd[2 * d, i, j],
+                                 bnd[2 * d + 1, i, j])
         if target > P.g_min:
             pulses += set_pulses(target, P)
         if d == 0:
             Gp[i, j] = G
         else:
             Gm[i, j] = G
-        state.wn[d, i, j] = 0.0
-        _written(state, d, i, j, target)
-    state.counters[REFRESHES] += 1
-    state.counters[REFRESH_PULSES] += pulses
+        wn[d, i, j] = 0.0
+        _written(age, rn, nu, nu_z, P, d, i, j, target)
+    counters[REFRESHES] += 1
+    counters[REFRESH_PULSES] += pulses
     return ctr
 
 
 @njit(cache=True)
-def _pulse_pair(state, i, j, n, positive, key, ctr):
+def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
+                positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
     pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
     G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
     then the write-noise normal (if ``write_noise``); a refresh then draws its
     programming noise."""
-    P = state.params
-    Gp = state.Gp
-    Gm = state.Gm
-    stuck = state.stuck
     noisy = P.dw_min_std != 0.0
     if P.step_model == STEP_BOUNDS and not P.set_only and P.write_noise == 0.0:
         # the pulse loop of earlier releases, draw for draw
-        step = state.step
         for _ in range(n):
             for d in range(2):
                 up = positive if d == 0 else not positive
@@ -622,8 +619,8 @@ def _pulse_pair(state, i, j, n, positive, key, ctr):
                     Gp[i, j] = _move(Gp[i, j], up, s, z, P)
                 else:
                     Gm[i, j] = _move(Gm[i, j], up, s, z, P)
-        _written(state, 0, i, j, Gp[i, j])
-        _written(state, 1, i, j, Gm[i, j])
+        _written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+        _written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
     else:
         wnoisy = P.write_noise > 0.0
         first = 0 if (positive or not P.set_only) else 1
@@ -640,13 +637,14 @@ def _pulse_pair(state, i, j, n, positive, key, ctr):
                 if stuck[d, i, j] != OK:
                     continue
                 if d == 0:
-                    Gp[i, j] = _pulse_device(state, Gp[i, j], 0, i, j, up, z, w)
+                    Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, up, z, w)
                 else:
-                    Gm[i, j] = _pulse_device(state, Gm[i, j], 1, i, j, up, z, w)
+                    Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, up, z, w)
         for d in range(first, last + 1):
-            _written(state, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
+            _written(age, rn, nu, nu_z, P, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
     if P.refresh != 0:
-        ctr = _refresh_pair(state, i, j, key, ctr)
+        ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
+                            ctr)
     return ctr
 
 
@@ -671,7 +669,9 @@ def _program_device(G, delta, P, key, ctr, lo, hi):
 
 @njit(cache=True)
 def _pulsed_update(state, post, pre, lr):
-    Gp = state.Gp
+    Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
+                                   state.wn)
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
     P = state.params
     bits = state.bits
     idx = state.idx
@@ -717,7 +717,8 @@ def _pulsed_update(state, post, pre, lr):
             if n:
                 coincidences += n
                 pairs += 1
-                ctr = _pulse_pair(state, i, j, n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
+                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, i, j,
+                                  n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
     state.rng[1] = ctr
     per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
     c[RNG_DRAWS] += np.int64(ctr - start)
@@ -741,6 +742,7 @@ def _analog_update(state, post, pre, lr):
     set_only = P.set_only != 0
     half = P.g_per_w if set_only else 0.5 * P.g_per_w
     stuck = state.stuck
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
@@ -765,15 +767,15 @@ def _analog_update(state, post, pre, lr):
                         Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
                     else:
                         Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
-                _written(state, k, i, j, Gp[i, j] if k == 0 else Gm[i, j])
+                _written(age, rn, nu, nu_z, P, k, i, j, Gp[i, j] if k == 0 else Gm[i, j])
                 written += 1
                 continue
             if stuck[0, i, j] == OK:
                 Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
             if stuck[1, i, j] == OK:
                 Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
-            _written(state, 0, i, j, Gp[i, j])
-            _written(state, 1, i, j, Gm[i, j])
+            _written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+            _written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
             written += 2
     state.rng[1] = ctr
     state.counters[RNG_DRAWS] += np.int64(ctr - start)
@@ -810,6 +812,10 @@ def _commit(state):
     P = state.params
     stuck = state.stuck
     bnd = state.bnd
+    wn = state.wn
+    step = state.step
+    counters = state.counters
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
     rows, cols = Gp.shape
     dw_min = P.dw_min
     dG = P.dG
@@ -840,7 +846,8 @@ def _commit(state):
             if pulse:
                 written += per_pair
                 pulses += per_pair * abs(n)
-                ctr = _pulse_pair(state, i, j, abs(n), n > 0, key, ctr)
+                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters,
+                                  P, i, j, abs(n), n > 0, key, ctr)
                 continue
             written += 2
             tp = Gp[i, j] + delta
@@ -853,15 +860,15 @@ def _commit(state):
             if stuck[0, i, j] == OK:
                 Gp[i, j], ctr = _program_device(tp, 0.0, P, key, ctr, bnd[0, i, j],
                                                 bnd[1, i, j])
-                state.wn[0, i, j] = 0.0
+                wn[0, i, j] = 0.0
             if stuck[1, i, j] == OK:
                 Gm[i, j], ctr = _program_device(tm, 0.0, P, key, ctr, bnd[2, i, j],
                                                 bnd[3, i, j])
-                state.wn[1, i, j] = 0.0
-            _written(state, 0, i, j, tp)
-            _written(state, 1, i, j, tm)
+                wn[1, i, j] = 0.0
+            _written(age, rn, nu, nu_z, P, 0, i, j, tp)
+            _written(age, rn, nu, nu_z, P, 1, i, j, tm)
     state.rng[1] = ctr
-    c = state.counters
+    c = counters
     c[RNG_DRAWS] += np.int64(ctr - start)
     c[DEVICE_PULSES] += pulses
     c[LINE_PULSES] += 2 * pulses  # a serial programming pulse drives one row and one column
@@ -988,7 +995,7 @@ def _calibration_readout(state):
         for k in range(cols):
             x[k] = 0.0
         x[j] = 1.0
-        _read(state, x, out, False)
+        read(state, x, out, False, -1)
         for i in range(rows):
             total += abs(out[i])
     state.counters[CALIBRATION_READS] += cols
