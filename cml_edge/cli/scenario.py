@@ -94,8 +94,9 @@ def _print_table(result: dict[str, Any]) -> None:
              "agreement": p["decision_agreement"]["mean"],
              **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
                 if "pulses" in p else {})} for p in result["parts"]]
+    chips = f" x {len(result['chip_seeds'])} chips" if "chip_seeds" in result else ""
     print(f"{result['scenario']} on {result['backend']} {result['backend_options'] or ''} "
-          f"({result['seeds']} seeds, {result['budget']} budget)")
+          f"({result['seeds']} seeds{chips}, {result['budget']} budget)")
     print(markdown_table(rows, tuple(rows[0])))
     for p in result["parts"]:
         if "chips" in p:
