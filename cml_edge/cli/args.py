@@ -198,20 +198,39 @@ def _instead(device: DeviceSpec, name: str, value: Any, shown: dict[str, str]) -
     return f"allowed: {name} as the backend fixes it"
 
 
-def add_chips(p: argparse.ArgumentParser) -> None:
-    """``--chips N`` and its options (:mod:`cml_edge.grid.chips`), for any command that runs
-    the protocol; :func:`chips_options` reads them back."""
+def add_chip_flags(p: argparse.ArgumentParser) -> argparse._ArgumentGroup:
+    """``--chips N``, ``--first-chip`` and ``--yield-target`` (:mod:`cml_edge.grid.chips`)
+    in a group of their own, for any command that runs models on chips;
+    :func:`chip_flags` reads them back. Returns the group."""
     from cml_edge.grid.chips import DEFAULT_YIELD_TARGET
 
     g = p.add_argument_group("many chips (Monte Carlo over device-to-device variation)")
     g.add_argument("--chips", type=positive_int, default=None, metavar="N",
-                   help="run N independent chips (chip seeds FIRST..FIRST+N-1), each through "
-                        "the protocol with the same model seeds; adds chips and yield")
+                   help="run N independent chips (chip seeds FIRST..FIRST+N-1), each training "
+                        "the same model seeds; adds chips and yield")
     g.add_argument("--first-chip", type=nonneg_int, default=0, metavar="FIRST",
                    help="the first chip seed (0)")
     g.add_argument("--yield-target", type=finite_float, default=DEFAULT_YIELD_TARGET,
                    metavar="RATE", help="a chip yields if its success rate is at least this "
                    f"(0..1, default {DEFAULT_YIELD_TARGET})")
+    return g
+
+
+def chip_flags(args: argparse.Namespace) -> dict[str, Any] | None:
+    """``{"n", "yield_target", "first"}`` given by :func:`add_chip_flags`'s flags (None
+    without ``--chips``); checks them now."""
+    from cml_edge.grid.chips import check_chips
+
+    if args.chips is None:
+        return None
+    check_chips(args.chips, args.yield_target, args.first_chip)
+    return {"n": args.chips, "yield_target": args.yield_target, "first": args.first_chip}
+
+
+def add_chips(p: argparse.ArgumentParser) -> None:
+    """The chip flags (:func:`add_chip_flags`) and where the chips run, for a command that
+    runs the protocol on them (``emulate``); :func:`chips_options` reads them back."""
+    g = add_chip_flags(p)
     g.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes for the chips (default: one per core)")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -223,13 +242,11 @@ def add_chips(p: argparse.ArgumentParser) -> None:
 def chips_options(args: argparse.Namespace) -> dict[str, Any] | None:
     """The keyword arguments of :func:`cml_edge.grid.chips.run_chips` given on the command
     line (None without ``--chips``); checks them now."""
-    from cml_edge.grid.chips import check_chips
-
-    if args.chips is None:
+    chips = chip_flags(args)
+    if chips is None:
         for flag in ("workers", "scheduler", "chips_out"):
             if getattr(args, flag) is not None:
                 raise InputError(f"--{flag.replace('_', '-')} needs --chips")
         return None
-    check_chips(args.chips, args.yield_target)
-    return {"n": args.chips, "yield_target": args.yield_target, "first": args.first_chip,
-            "out": args.chips_out, "workers": args.workers, "scheduler": args.scheduler}
+    return {**chips, "out": args.chips_out, "workers": args.workers,
+            "scheduler": args.scheduler}

@@ -9,7 +9,9 @@ from typing import Any
 from cml_edge.cli.args import (
     Progress,
     add_backend,
+    add_chip_flags,
     backend_options,
+    chip_flags,
     command_line,
     finite_float,
     positive_int,
@@ -42,6 +44,7 @@ def add_parsers(sub) -> None:
     p.add_argument("name", help=f"scenario: {', '.join(SCENARIOS)}")
     _add_common(p, 10)
     p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
+    add_chip_flags(p)
     p.set_defaults(run=cmd_scenario)
 
     p = sub.add_parser("breakpoint", help="the knob value where a scenario's success "
@@ -69,11 +72,14 @@ def _budget(args: argparse.Namespace) -> str:
 
 
 def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
+    chip_flags(args)  # checked now, before any task
     if args.out is not None:
         writable_folder(args.out, "--out")
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
-                          Progress(f"scenario {args.name}"), command=command_line())
+                          Progress(f"scenario {args.name}"), command=command_line(),
+                          chips=args.chips, first_chip=args.first_chip,
+                          yield_target=args.yield_target)
     if not args.json:
         _print_table(result)
     return result
@@ -88,9 +94,16 @@ def _print_table(result: dict[str, Any]) -> None:
              "agreement": p["decision_agreement"]["mean"],
              **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
                 if "pulses" in p else {})} for p in result["parts"]]
+    chips = f" x {len(result['chip_seeds'])} chips" if "chip_seeds" in result else ""
     print(f"{result['scenario']} on {result['backend']} {result['backend_options'] or ''} "
-          f"({result['seeds']} seeds, {result['budget']} budget)")
+          f"({result['seeds']} seeds{chips}, {result['budget']} budget)")
     print(markdown_table(rows, tuple(rows[0])))
+    for p in result["parts"]:
+        if "chips" in p:
+            s = p["chips"]["success_rate"]
+            print(f"{p['part']}: yield {p['yield']:.3f} (success >= {p['yield_target']:g}) "
+                  f"over {p['chips']['n']} chips; success mean {s['mean']:.3f}, p05 "
+                  f"{s['p05']:.3f}, median {s['median']:.3f}, p95 {s['p95']:.3f}")
     result["_printed"] = True
 
 

@@ -45,10 +45,13 @@ CHIPS_FOLDER = Path("runs") / "chips"
 QUANTILES = {"p05": 0.05, "median": 0.5, "p95": 0.95}
 
 
-def check_chips(n: int, yield_target: float) -> None:
-    """InputError unless ``n`` >= 1 and ``yield_target`` is in [0, 1]."""
+def check_chips(n: int, yield_target: float, first: int = 0) -> None:
+    """InputError unless ``n`` >= 1, ``yield_target`` is in [0, 1] and the first chip
+    seed ``first`` >= 0."""
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise InputError(f"chips {n!r} is not allowed (allowed: an integer >= 1)")
+    if isinstance(first, bool) or not isinstance(first, int) or first < 0:
+        raise InputError(f"first chip seed {first!r} is not allowed (allowed: >= 0)")
     if not (isinstance(yield_target, (int, float)) and math.isfinite(yield_target)
             and 0.0 <= yield_target <= 1.0):
         raise InputError(f"yield target {yield_target!r} is not allowed (allowed: 0..1)")
@@ -146,9 +149,7 @@ def run_chips(n: int, protocol: dict[str, Any], yield_target: float = DEFAULT_YI
     ``backend_options``), on the sweep engine; task files under ``out`` (default
     ``runs/chips/KEY``, KEY from the protocol), so a rerun resumes. Returns the pooled
     result (:func:`pool_chips`) with the protocol, the folder and the wall time."""
-    check_chips(n, yield_target)
-    if isinstance(first, bool) or not isinstance(first, int) or first < 0:
-        raise InputError(f"first chip seed {first!r} is not allowed (allowed: >= 0)")
+    check_chips(n, yield_target, first)
     folder = Path(out) if out is not None else CHIPS_FOLDER / protocol_key(protocol)
     t0 = time.perf_counter()
     done = run_sweep(chip_tasks(n, protocol, first), folder, workers=workers,

@@ -16,6 +16,16 @@ over the seeds:
   spreads) of the relearning walks.
 
 The recovery scenario adds ``dqn_retrain`` (:mod:`cml_edge.scenarios.dqn_cost`).
+
+**Many chips** (``chips``, issue 15; :mod:`cml_edge.grid.chips`): every (run x seed) runs
+on each chip seed ``first_chip`` .. ``first_chip + chips - 1`` (task key
+``RUN-cCHIP-sSEED``, so a rerun resumes, and a run without chips keeps its keys
+``RUN-sSEED`` and its JSON). The part's keys above are then pooled over all chips x seeds
+(``seeds`` stays the number of model seeds; ``per_seed`` has one entry per chip x seed,
+each with its ``chip``), and each part gains ``chips`` (the distribution over chips of
+every per-seed metric, each chip's mean over its seeds, by
+:func:`cml_edge.grid.chips.pool_chips`), ``yield`` and ``yield_target``; a chip's
+success rate is pooled over its seeds' trials.
 """
 
 from __future__ import annotations
@@ -23,7 +33,7 @@ from __future__ import annotations
 import json
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -36,6 +46,7 @@ from cml_edge.core.cml import CML
 from cml_edge.core.fidelity import TWIN, pool_seeds, seed_stats
 from cml_edge.errors import InputError
 from cml_edge.experiments.common import pool
+from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips, pool_chips
 from cml_edge.scenarios.registry import BUDGETS, get
 from cml_edge.storage import atomic_write_text
 from cml_edge.sweep import Task, run_sweep
@@ -50,8 +61,10 @@ PART_KEYS = ("size", "obstacles", "map", "scen", "planner", "max_steps", "eval_a
 
 
 def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
-                   budget: str = "full", idle_s: float = 0.0) -> list[Task]:
-    """The (run x seed) tasks of scenario ``name`` on the device (checked here)."""
+                   budget: str = "full", idle_s: float = 0.0,
+                   chips: Sequence[int] | None = None) -> list[Task]:
+    """The (run x seed) tasks of scenario ``name`` on the device (checked here); with
+    ``chips`` (chip seeds), the (chip x run x seed) tasks."""
     scenario = get(name)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; allowed: {', '.join(BUDGETS)}")
@@ -62,8 +75,11 @@ def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
     base = {"backend": backend, "backend_options": dict(options)}
     if idle_s:
         base["idle_s"] = float(idle_s)
-    return [Task(f"{run}-s{seed}", TASK_FNS[scenario.world], {**base, **params, "seed": seed})
-            for run, params in scenario.runs(BUDGETS[budget]) for seed in range(int(seeds))]
+    on = [("", {})] if chips is None else [(f"-c{c}", {"chip": int(c)}) for c in chips]
+    return [Task(f"{run}{tag}-s{seed}", TASK_FNS[scenario.world],
+                 {**base, **params, **chip, "seed": seed})
+            for tag, chip in on for run, params in scenario.runs(BUDGETS[budget])
+            for seed in range(int(seeds))]
 
 
 def _pool_trials(world: str, records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -113,36 +129,70 @@ def pool_part(world: str, records: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def chip_record(record: dict[str, Any]) -> dict[str, Any]:
+    """A part record's per-seed metrics, for :func:`~cml_edge.grid.chips.pool_chips`: the
+    record without the part's settings (and of the relearning cost, its pulses, writes
+    and energy)."""
+    out = {k: v for k, v in record.items() if k not in (*PART_KEYS, "trials", "eval_seed")}
+    if "relearn" in record:
+        out["relearn"] = {k: record["relearn"][k] for k in ("pulses", "writes", "energy_uJ")}
+    return out
+
+
+def pool_part_chips(world: str, entries: list[tuple[int, dict[str, Any]]],
+                    yield_target: float) -> dict[str, Any]:
+    """``chips``, ``yield`` and ``yield_target`` of one part from its (chip, record)
+    entries (module docstring)."""
+    by_chip: dict[int, list[dict[str, Any]]] = {}
+    for chip, record in entries:
+        by_chip.setdefault(chip, []).append(record)
+    return pool_chips([{"chip": chip, "success_rate": _pool_trials(world, recs)["success_rate"],
+                        "per_seed": [chip_record(r) for r in recs]}
+                       for chip, recs in by_chip.items()], yield_target)
+
+
 def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | None = None,
                  seeds: int = 10, budget: str = "full", out: str | Path | None = None,
                  workers: int | None = None, scheduler: str | None = None,
                  progress: Callable[[int, int], None] | None = None, idle_s: float = 0.0,
-                 command: str | None = None) -> dict[str, Any]:
+                 command: str | None = None, chips: int | None = None, first_chip: int = 0,
+                 yield_target: float = DEFAULT_YIELD_TARGET) -> dict[str, Any]:
     """Run scenario ``name`` on ``backend`` with ``options`` (the device's config fields,
     e.g. ``{"preset": "pcm"}``) for model seeds 0..``seeds``-1 at ``budget`` (a key of
     :data:`~cml_edge.scenarios.registry.BUDGETS`); ``idle_s`` more seconds idle before
     every evaluation (the drift-time knob of ``cml-edge breakpoint``). With ``out``, the
     tasks are kept under ``out/tasks`` (resumable) and the result is written to
-    ``out/results.json``; without, they go to a temporary folder. Returns the JSON-ready
-    result (module docstring)."""
+    ``out/results.json``; without, they go to a temporary folder. With ``chips``, on
+    chip seeds ``first_chip`` .. ``first_chip + chips - 1``, each part with its yield at
+    ``yield_target``. Returns the JSON-ready result (module docstring)."""
     options = dict(options or {})
     scenario = get(name)
-    tasks = scenario_tasks(name, backend, options, seeds, budget, idle_s)
+    chip_seeds = None
+    if chips is not None:
+        check_chips(chips, yield_target, first_chip)
+        chip_seeds = list(range(first_chip, first_chip + chips))
+    tasks = scenario_tasks(name, backend, options, seeds, budget, idle_s, chip_seeds)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="cml-edge-scenario-") as tmp:
         results = run_sweep(tasks, out or tmp, workers=workers, scheduler=scheduler,
                             progress=progress)
-    parts: dict[str, list[dict[str, Any]]] = {}
-    seeds_of: dict[str, list[int]] = {}
-    for res in results.values():
+    parts: dict[str, list[tuple[dict[str, Any], int, int | None]]] = {}
+    for task in tasks:  # (record, model seed, chip seed) of each part
+        res = results[task.key]
         for rec in res["parts"]:
-            parts.setdefault(rec["name"], []).append(rec)
-            seeds_of.setdefault(rec["name"], []).append(res["seed"])
+            parts.setdefault(rec["name"], []).append((rec, res["seed"],
+                                                      task.params.get("chip")))
     pooled = []
-    for part_name, records in parts.items():
-        row = pool_part(scenario.world, records)
-        for entry, seed in zip(row["per_seed"], seeds_of[part_name]):
+    for entries in parts.values():
+        row = pool_part(scenario.world, [rec for rec, _, _ in entries])
+        for entry, (_, seed, chip) in zip(row["per_seed"], entries):
             entry["seed"] = seed
+            if chip is not None:
+                entry["chip"] = chip
+        if chip_seeds is not None:
+            row["seeds"] = int(seeds)
+            row.update(pool_part_chips(scenario.world, [(chip, rec) for rec, _, chip
+                                                        in entries], yield_target))
         pooled.append(row)
     b = BUDGETS[budget]
     result: dict[str, Any] = {
@@ -153,6 +203,8 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
         "walks": b.walks, "steps": b.steps, "trials": b.trials, "idle_s": float(idle_s),
         "compute_path": "direct", "fidelity_twin": TWIN, "tasks": len(tasks),
         "parts": pooled}
+    if chip_seeds is not None:
+        result["chip_seeds"] = chip_seeds
     if name == "recovery":
         from cml_edge.scenarios.dqn_cost import dqn_retrain_estimate
 

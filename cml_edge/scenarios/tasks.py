@@ -4,7 +4,10 @@ its parts (:mod:`cml_edge.scenarios.registry`), measured against the float64 twi
 Both tasks run on the direct compiled path (the arrays count every operation there, as
 in ``cml-edge emulate``) and return JSON: per part, the per-trial outcomes (pooled over
 seeds by the runner), the summary, and the fidelity record of
-:mod:`cml_edge.core.fidelity`.
+:mod:`cml_edge.core.fidelity`. Both take a ``chip``: the chip seed of the arrays' device
+streams (:mod:`cml_edge.grid.chips`; None: the model seed's chip). The float64 twin is
+the model seed's whatever the chip (a float64 array draws nothing), as in ``cml-edge
+emulate --chips``.
 
 Grid parts (:func:`grid_task`): each part plans a copy of the trained model after
 ``idle_s + age_s`` seconds idle from the end of training (``elapse`` on each array: the
@@ -73,14 +76,14 @@ def _measure(seed: int, cml: CML, twin: CML, spec: dict[str, Any], arena: int
 
 def grid_task(seed: int, backend: str, backend_options: dict[str, Any], arena: int,
               walks: int, steps: int, schedule: str, parts: list[dict[str, Any]],
-              idle_s: float = 0.0) -> dict[str, Any]:
+              idle_s: float = 0.0, chip: int | None = None) -> dict[str, Any]:
     """Train model ``seed`` on the empty ``arena`` and measure each part (module
-    docstring)."""
+    docstring); ``chip``: on the chip of that chip seed (None: of the model seed)."""
     config = TrainConfig(walks, steps, "random", schedule)
     cml_config = CMLConfig.for_arena(arena)
     train_arena = GridArena.empty(arena)
     run = train_seed(seed, Training(train_arena, config, cml_config, backend,
-                                    backend_options, PATH))
+                                    backend_options, PATH, chip=chip))
     twin = float_twin(seed, train_arena, config, cml_config)
     out = []
     # age -> (relearning model, its twin, walks relearnt, the counters before relearning)
@@ -112,10 +115,11 @@ def grid_task(seed: int, backend: str, backend_options: dict[str, Any], arena: i
 
 
 def robot_task(seed: int, backend: str, backend_options: dict[str, Any], walks: int,
-               steps: int, trials: int, eval_seed: int, idle_s: float = 0.0
-               ) -> dict[str, Any]:
+               steps: int, trials: int, eval_seed: int, idle_s: float = 0.0,
+               chip: int | None = None) -> dict[str, Any]:
     """Train robot model ``seed`` on the kinematic simulator (the defaults of ``cml-edge
-    robot train``), let ``idle_s`` pass, drive to ``trials`` goals from the base."""
+    robot train``) on the chip of chip seed ``chip`` (None: of the model seed), let
+    ``idle_s`` pass, drive to ``trials`` goals from the base."""
     from cml_edge.robot.fidelity import robot_seed_fidelity, robot_twin
     from cml_edge.robot.observation import RobotCMLSettings
     from cml_edge.robot.planning import BASE_POSE, draw_goals, plan_robot, summarize_robot
@@ -125,7 +129,7 @@ def robot_task(seed: int, backend: str, backend_options: dict[str, Any], walks: 
     settings, robot = RobotCMLSettings(), RobotConfig()
     sim = make_sim("kinematic", robot)
     config = RobotTrainConfig(walks, steps)
-    cml = CML.create(settings.cml_config(), backend, seed, **backend_options)
+    cml = CML.create(settings.cml_config(), backend, seed, chip, **backend_options)
     info = train_robot(cml, sim, settings, config, seed, path=PATH)
     train_counters = cml.counters()
     for arr in cml.arrays:
