@@ -136,6 +136,36 @@ def round_half_even(v):
     return np.rint(v)
 
 
+@njit(cache=True, inline="always")
+def max_abs(x, n):
+    """(max |x[:n]|, whether all of them are finite); 0 for n = 0. A NaN is passed over in
+    the max (``a > top`` is false for it). Four running maxima: max is exact, so any
+    order gives the same value, and four independent chains run ~2x faster than one
+    (issue 15)."""
+    t0 = t1 = t2 = t3 = 0.0
+    finite = True
+    i = 0
+    while i + 4 <= n:
+        a0 = abs(x[i])
+        a1 = abs(x[i + 1])
+        a2 = abs(x[i + 2])
+        a3 = abs(x[i + 3])
+        finite &= (a0 <= MAX_FLOAT) & (a1 <= MAX_FLOAT) & (a2 <= MAX_FLOAT) & (a3 <= MAX_FLOAT)
+        t0 = a0 if a0 > t0 else t0
+        t1 = a1 if a1 > t1 else t1
+        t2 = a2 if a2 > t2 else t2
+        t3 = a3 if a3 > t3 else t3
+        i += 4
+    while i < n:
+        a0 = abs(x[i])
+        finite &= a0 <= MAX_FLOAT
+        t0 = a0 if a0 > t0 else t0
+        i += 1
+    t0 = t1 if t1 > t0 else t0
+    t2 = t3 if t3 > t2 else t2
+    return (t2 if t2 > t0 else t0), finite
+
+
 @njit(cache=True)
 def quantize_vector(x, n, qmax, out):
     """Quantise x[:n] to mantissas out[:n] (int64) with one shared exponent, returned.
@@ -144,13 +174,9 @@ def quantize_vector(x, n, qmax, out):
     nearest, ties to even. An all-zero vector gets exponent 0 and zero mantissas.
     Raises ValueError on a non-finite entry.
     """
-    top = 0.0
-    for i in range(n):
-        a = abs(x[i])
-        if not a <= MAX_FLOAT:
-            raise InputError("non-finite input to a fixed-point array")
-        if a > top:
-            top = a
+    top, finite = max_abs(x, n)
+    if not finite:
+        raise InputError("non-finite input to a fixed-point array")
     if top == 0.0:
         for i in range(n):
             out[i] = 0

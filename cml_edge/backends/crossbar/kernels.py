@@ -88,6 +88,7 @@ from cml_edge.backends.crossbar.config import (
     STEP_MODELS,
     UPDATES,
 )
+from cml_edge.backends.quant import max_abs
 from cml_edge.rng import uniform, unit, word
 
 # choice codes of the parameter record (the index of the value in the config's choices)
@@ -201,11 +202,7 @@ def _pulse_train(p, bl, key, ctr):
 @njit(cache=True)
 def _convert_inputs(x, xs, n_in, dac, need_sq):
     """xs = DAC(x / max|x|); returns (max|x|, nonzero inputs, sum xs^2 if ``need_sq``)."""
-    xmax = 0.0
-    for j in range(n_in):
-        a = abs(x[j])
-        if a > xmax:
-            xmax = a
+    xmax = max_abs(x, n_in)[0]
     if not xmax > 0.0:
         return xmax, 0, 0.0
     nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax, need_sq)
