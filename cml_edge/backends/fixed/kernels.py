@@ -297,16 +297,19 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     return touched
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fixed_outer_update(state, post, pre, lr, defer):
-    m = state.mantissa
-    p = state.params
+    _outer_update(state.mantissa, state.acc, state.params, state.rng, state.xq, state.yq,
+                  state.tally, state.counters, post, pre, lr, defer)
+
+
+@njit(cache=True)
+def _outer_update(m, acc, p, rng, rf, cq, tally, c, post, pre, lr, defer):
+    """W += lr post pre^T (or into the accumulator when ``defer``) on the state's arrays
+    (passed one by one: see :func:`cml_edge.backends.crossbar.kernels.read`)."""
     rows, cols = m.shape
-    c = state.counters
     c[OUTER_UPDATES] += 1
     lr_m, lr_e = lr_mantissa(lr, p.lr_bits)
-    rf = state.xq
-    cq = state.yq
     e_p = quantize_vector(post, rows, p.act_qmax, rf)
     e_q = quantize_vector(pre, cols, p.act_qmax, cq)
     if lr_m == 0:
@@ -316,21 +319,18 @@ def fixed_outer_update(state, post, pre, lr, defer):
         rf[i] *= lr_m  # row factor lr_m m_post[i]
         top_r = max(top_r, abs(rf[i]))
     top = top_r * p.act_qmax
-    tally = state.tally
     mode = p.rounding
     # P is in units of 2^(lr_e + e_p + e_q); the target's unit is 2^(e_w - F) or 2^e_w
     if defer:
         k = p.exp - p.frac - (lr_e + e_p + e_q)
-        touched = _add_outer(state.acc, p.acc_max, rf, cq, rows, cols, k, top, mode,
-                             state.rng, tally)
+        touched = _add_outer(acc, p.acc_max, rf, cq, rows, cols, k, top, mode, rng, tally)
         c[ACC_WRITES] += tally[0]
         c[ACC_SATURATIONS] += tally[2]
-        c[BYTES_READ] += tally[0] * state.acc.itemsize
-        c[BYTES_WRITTEN] += tally[0] * state.acc.itemsize
+        c[BYTES_READ] += tally[0] * acc.itemsize
+        c[BYTES_WRITTEN] += tally[0] * acc.itemsize
     else:
         k = p.exp - (lr_e + e_p + e_q)
-        touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, state.rng,
-                             tally)
+        touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, rng, tally)
         c[WEIGHT_READS] += tally[0]
         c[WEIGHT_WRITES] += tally[0]
         c[CELLS_CHANGED] += tally[1]
