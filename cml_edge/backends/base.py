@@ -195,3 +195,10 @@ def _vector(x: np.ndarray, n: int) -> np.ndarray:
     if v.shape != (n,):
         raise InputError(f"expected a vector of length {n}, got shape {v.shape}")
     return v
+
+
+def laid_out(a: np.ndarray) -> np.ndarray:
+    """A copy of a weight-shaped array, column-major if tall (rows >= cols), row-major if
+    wide: the kernels' inner loops run along columns of a tall matrix (W x is a sum of
+    columns; a one-hot pre updates one column) and along rows of a wide one."""
+    return np.array(a, order="F" if a.shape[0] >= a.shape[1] else "C", copy=True)

@@ -304,16 +304,26 @@ def int_matvec(w, s, sums):
 
 @njit(cache=True, inline="always")
 def int_rmatvec(w, s, sums):
-    """sums = w^T s in int64 (as :func:`int_matvec`); returns the nonzero inputs."""
+    """sums = w^T s in int64 (as :func:`int_matvec`; integer sums are exact, so the loop
+    order follows the layout: one reduction per column of a tall, column-major matrix);
+    returns the nonzero inputs."""
     rows, cols = w.shape
+    nnz = 0
+    for i in range(rows):
+        nnz += s[i] != 0
+    if cols <= NARROW:
+        for j in range(cols):
+            total = np.int64(0)
+            for i in range(rows):
+                total += w[i, j] * s[i]
+            sums[j] = total
+        return nnz
     for j in range(cols):
         sums[j] = 0
-    nnz = 0
     for i in range(rows):
         v = s[i]
         if v == 0:
             continue
-        nnz += 1
         for j in range(cols):
             sums[j] += w[i, j] * v
     return nnz

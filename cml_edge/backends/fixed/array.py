@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.fields import matrix_value
 from cml_edge.backends.fixed import kernels as kern
 from cml_edge.backends.fixed.config import (
@@ -115,8 +115,9 @@ class FixedArray(SynapticArray):
         counters = np.zeros(kern.N_COUNTERS, np.int64)
         counters[kern.SATURATIONS] = clipped
         rng = np.array([stream_key(seed, STREAM_DEVICE + index), 0], dtype=np.uint64)
-        state = FixedState(np.ascontiguousarray(mantissa),
-                           np.zeros((rows, cols), storage_dtype(config.acc_bits)), params, rng,
+        state = FixedState(laid_out(mantissa),
+                           laid_out(np.zeros((rows, cols), storage_dtype(config.acc_bits))),
+                           params, rng,
                            np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
                            np.zeros(4, np.int64), counters)
         return cls(state)
@@ -187,7 +188,7 @@ class FixedArray(SynapticArray):
             raise InputError("learning accumulator beyond its format")
         if (state.counters < 0).any():
             raise InputError("negative counters")
-        return cls(state)
+        return cls(state._replace(mantissa=laid_out(state.mantissa), acc=laid_out(state.acc)))
 
     @classmethod
     def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -6,7 +6,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.floating import kernels as kern
 from cml_edge.backends.floating.config import FloatConfig, make_config
 
@@ -18,10 +18,6 @@ class FloatState(NamedTuple):
     counters: np.ndarray  # int64[N_COUNTERS]
 
 
-
-def _laid_out(W: np.ndarray) -> np.ndarray:
-    """A copy of W column-major if tall, row-major if wide (see the kernels' docstring)."""
-    return np.array(W, order="F" if W.shape[0] >= W.shape[1] else "C", copy=True)
 
 
 class FloatArray(SynapticArray):
@@ -41,13 +37,13 @@ class FloatArray(SynapticArray):
         """Store W in the config's dtype (``options``: the fields of
         :class:`~cml_edge.backends.floating.config.FloatConfig`, or a ``preset``)."""
         config = make_config(**options)
-        W = _laid_out(np.asarray(W, dtype=np.dtype(config.dtype)))
+        W = laid_out(np.asarray(W, dtype=np.dtype(config.dtype)))
         return cls(FloatState(W, np.zeros_like(W), np.zeros(max(W.shape), W.dtype),
                               np.zeros(kern.N_COUNTERS, np.int64)))
 
     @classmethod
     def _restore(cls, state: FloatState, options: dict[str, Any]) -> FloatArray:
-        return cls(state._replace(W=_laid_out(state.W), acc=_laid_out(state.acc)))
+        return cls(state._replace(W=laid_out(state.W), acc=laid_out(state.acc)))
 
     def options(self) -> dict[str, Any]:
         return {"dtype": self.state.W.dtype.name}

@@ -30,7 +30,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.fields import matrix_value
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2.config import (
@@ -135,11 +135,11 @@ class Loihi2Array(SynapticArray):
         params = loihi2_params(config, exp, scale_exp, nb)
         rows, cols = W.shape
         n = max(rows, cols)
-        w = np.ascontiguousarray(w, dtype=np.int16)
+        w = laid_out(w.astype(np.int16))
         counters = np.zeros(kern.N_COUNTERS, np.int64)
         counters[kern.PROGRAM_CLIPS] = wrong
         rng = np.array([stream_key(seed, STREAM_DEVICE + index), 0], dtype=np.uint64)
-        state = Loihi2State(w, w.astype(np.int32) << kern.FRAC_BITS, params, rng,
+        state = Loihi2State(w, laid_out(w.astype(np.int32) << kern.FRAC_BITS), params, rng,
                             np.zeros(1, np.int64), np.zeros(n, np.int64),
                             np.zeros(n, np.int64), np.zeros(n, np.int64),
                             np.zeros(3, np.int64), counters)
@@ -256,7 +256,7 @@ class Loihi2Array(SynapticArray):
                              f"{p.t_epoch}")
         if (state.counters < 0).any():
             raise InputError("negative counters")
-        return cls(state)
+        return cls(state._replace(w=laid_out(state.w), acc=laid_out(state.acc)))
 
 
 def lava_description(arr: Loihi2Array, name: str) -> dict[str, Any]:
