@@ -101,9 +101,8 @@ def lr_mantissa(lr, lr_bits):
 
 
 @njit(cache=True)
-def _emit(state, sums, n, ex, check, shift, out, strict):
+def _emit(p, sums, n, ex, check, shift, out, strict):
     """out[:n] = (saturated sums >> shift) x 2^(e_w + ex + shift); returns saturations."""
-    p = state.params
     e_out = p.exp + ex + shift
     sats = 0
     if check:
@@ -126,36 +125,33 @@ def _emit(state, sums, n, ex, check, shift, out, strict):
 
 @njit(cache=True, inline="always")
 def fixed_matvec(state, x, out):
-    m = state.mantissa
-    p = state.params
-    xq = state.xq
-    sums = state.sums
-    rows, cols = m.shape
-    ex = quantize_vector(x, cols, p.act_qmax, xq)
-    nnz = int_matvec(m, xq, sums)
-    sats = _emit(state, sums, rows, ex, p.mv_check, p.mv_shift, out, p.strict)
-    done = nnz * rows
-    c = state.counters
-    c[MATVECS] += 1
-    c[MACS] += done
-    c[WEIGHT_READS] += done
-    c[BYTES_READ] += done * m.itemsize
-    c[MAC_SATURATIONS] += sats
+    _read(state.mantissa, state.params, state.xq, state.sums, state.counters, x, out, False)
 
 
 @njit(cache=True, inline="always")
 def fixed_rmatvec(state, y, out):
-    m = state.mantissa
-    p = state.params
-    yq = state.xq
-    sums = state.sums
+    _read(state.mantissa, state.params, state.xq, state.sums, state.counters, y, out, True)
+
+
+@njit(cache=True)
+def _read(m, p, xq, sums, c, x, out, transposed):
+    """out = W x (W^T x if ``transposed``): the input quantised, the exact integer MAC,
+    the sums emitted. The state's arrays come one by one (one statement in the seam's
+    kernels: reading them from the state inside the inlined step costs their reference
+    counts, issue 15)."""
     rows, cols = m.shape
-    ey = quantize_vector(y, rows, p.act_qmax, yq)
-    nnz = int_rmatvec(m, yq, sums)
-    sats = _emit(state, sums, cols, ey, p.rmv_check, p.rmv_shift, out, p.strict)
-    done = nnz * cols
-    c = state.counters
-    c[RMATVECS] += 1
+    if transposed:
+        e = quantize_vector(x, rows, p.act_qmax, xq)
+        nnz = int_rmatvec(m, xq, sums)
+        sats = _emit(p, sums, cols, e, p.rmv_check, p.rmv_shift, out, p.strict)
+        done = nnz * cols
+        c[RMATVECS] += 1
+    else:
+        e = quantize_vector(x, cols, p.act_qmax, xq)
+        nnz = int_matvec(m, xq, sums)
+        sats = _emit(p, sums, rows, e, p.mv_check, p.mv_shift, out, p.strict)
+        done = nnz * rows
+        c[MATVECS] += 1
     c[MACS] += done
     c[WEIGHT_READS] += done
     c[BYTES_READ] += done * m.itemsize
