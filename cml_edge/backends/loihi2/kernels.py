@@ -188,9 +188,8 @@ def encode(x, n, qmax, l1_max, safe, out):
 
 
 @njit(cache=True)
-def _emit(state, sums, n, e, out):
+def _emit(p, sums, n, e, out):
     """out[:n] = the neuron inputs of the dendritic sums, as floats; returns the wraps."""
-    p = state.params
     e_out = e - p.scale_exp - ACT_SHIFT
     wraps = 0
     big = not (-1000 < e_out < 1000)
@@ -203,44 +202,35 @@ def _emit(state, sums, n, e, out):
 
 
 @njit(cache=True, inline="always")
-def _count_read(state, counter, nnz, fanout, wraps):
-    c = state.counters
+def loihi2_matvec(state, x, out):
+    _read(state.w, state.params, state.xq, state.sums, state.counters, x, out, False)
+
+
+@njit(cache=True, inline="always")
+def loihi2_rmatvec(state, y, out):
+    _read(state.w, state.params, state.xq, state.sums, state.counters, y, out, True)
+
+
+@njit(cache=True)
+def _read(w, p, s, sums, c, x, out, transposed):
+    """out = W x (W^T x if ``transposed``): graded spikes, the exact dendritic sums, the
+    neuron inputs; on the state's arrays one by one (see
+    :func:`cml_edge.backends.fixed.kernels.fixed_matvec`)."""
+    rows, cols = w.shape
+    n_in, fanout = (rows, cols) if transposed else (cols, rows)
+    e = encode(x, n_in, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
+    nnz = int_rmatvec(w, s, sums) if transposed else int_matvec(w, s, sums)
+    wraps = _emit(p, sums, fanout, e, out)
     done = nnz * fanout
-    c[counter] += 1
+    c[RMATVECS if transposed else MATVECS] += 1
     c[MACS] += done
     c[WEIGHT_READS] += done
     c[NEURON_WRAPS] += wraps
     c[BITS_READ] += done * WEIGHT_BITS
     c[BYTES_READ] = (c[BITS_READ] + 7) >> 3
-    if wraps and state.params.strict:
+    if wraps and p.strict:
         raise SaturationError("loihi2: a read overflowed the neuron's 24-bit input "
                               "(strict mode)")
-
-
-@njit(cache=True, inline="always")
-def loihi2_matvec(state, x, out):
-    w = state.w
-    p = state.params
-    s = state.xq
-    sums = state.sums
-    rows, cols = w.shape
-    e = encode(x, cols, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
-    nnz = int_matvec(w, s, sums)
-    wraps = _emit(state, sums, rows, e, out)
-    _count_read(state, MATVECS, nnz, rows, wraps)
-
-
-@njit(cache=True, inline="always")
-def loihi2_rmatvec(state, y, out):
-    w = state.w
-    p = state.params
-    s = state.xq
-    sums = state.sums
-    rows, cols = w.shape
-    e = encode(y, rows, p.msg_qmax, p.l1_max, p.payload_scale == SAFE, s)
-    nnz = int_rmatvec(w, s, sums)
-    wraps = _emit(state, sums, cols, e, out)
-    _count_read(state, RMATVECS, nnz, cols, wraps)
 
 
 # the learning engine ----------------------------------------------------------------------
@@ -314,18 +304,17 @@ def write_back(a, r, sign, w_min, w_max):
 
 @njit(cache=True)
 def _trailing_zeros(v, n):
-    """The number of low zero bits every nonzero v[:n] has (62 if all are zero)."""
-    tz = 62
+    """The number of low zero bits every nonzero v[:n] has (62 if all are zero): those of
+    the OR of them all (v and -v have the same; one pass that vectorises)."""
+    bits = np.int64(0)
     for i in range(n):
-        a = abs(v[i])
-        if a == 0:
-            continue
-        z = 0
-        while (a & 1) == 0:
-            a >>= 1
-            z += 1
-        if z < tz:
-            tz = z
+        bits |= v[i]
+    if bits == 0:
+        return 62
+    tz = 0
+    while (bits & 1) == 0:
+        bits >>= 1
+        tz += 1
     return tz
 
 
