@@ -215,6 +215,36 @@ def _exact_line(line, limit, fa, factors, nk):
     return touched, changed, sats
 
 
+@njit(cache=True, inline="always")
+def _stochastic_line(line, limit, fa, factors, pk, two_k, key, ctr):
+    """line[b] += round(fa factors[b] 2^-pk) with stochastic rounding where factors[b] != 0
+    (0 < pk <= 62), drawing as :func:`_scaled` does (a product draws when its factor is
+    nonzero and it has a fraction, at the next counter), with no other branch in the
+    loop. Returns (cells touched, written, changed, saturated, the next counter)."""
+    touched = 0
+    written = 0
+    changed = 0
+    sats = 0
+    for b in range(line.shape[0]):
+        fb = factors[b]
+        prod = fa * fb
+        d = prod >> pk  # floor
+        r = prod - (d << pk)
+        if r != 0:  # (r == 0 when fb == 0)
+            d += np.int64(uniform(key, ctr) * two_k < float(r))
+            ctr += 1
+        live = d != 0
+        old = np.int64(line[b])
+        t = old + d
+        new = min(max(t, -limit), limit)
+        line[b] = new
+        touched += fb != 0
+        written += live
+        changed += new != old
+        sats += t != new
+    return touched, written, changed, sats, ctr
+
+
 @njit(cache=True)
 def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     """target += round(rf cq^T 2^-k) on the cells whose factors are both nonzero.
@@ -253,6 +283,25 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                     changed += c
                     sats += s
         written = touched  # a nonzero exact product is a nonzero change
+    elif mode == STOCHASTIC and 0 < pk <= 62:  # (issue 15)
+        if cols <= NARROW:
+            for a in range(cols):
+                if cq[a] != 0:
+                    t, w, c, s, ctr = _stochastic_line(target[:, a], limit, cq[a], rf, pk,
+                                                       two_k, key, ctr)
+                    touched += t
+                    written += w
+                    changed += c
+                    sats += s
+        else:
+            for a in range(rows):
+                if rf[a] != 0:
+                    t, w, c, s, ctr = _stochastic_line(target[a], limit, rf[a], cq, pk,
+                                                       two_k, key, ctr)
+                    touched += t
+                    written += w
+                    changed += c
+                    sats += s
     elif cols <= NARROW:
         for a in range(cols):
             fa = cq[a]
