@@ -304,26 +304,6 @@ def int_matvec(w, s, sums):
 
 @njit(cache=True, inline="always")
 def int_rmatvec(w, s, sums):
-    """sums = w^T s in int64 (as :func:`int_matvec`; integer sums are exact, so the loop
-    order follows the layout: one reduction per column of a tall, column-major matrix);
-    returns the nonzero inputs."""
-    rows, cols = w.shape
-    nnz = 0
-    for i in range(rows):
-        nnz += s[i] != 0
-    if cols <= NARROW:
-        for j in range(cols):
-            total = np.int64(0)
-            for i in range(rows):
-                total += w[i, j] * s[i]
-            sums[j] = total
-        return nnz
-    for j in range(cols):
-        sums[j] = 0
-    for i in range(rows):
-        v = s[i]
-        if v == 0:
-            continue
-        for j in range(cols):
-            sums[j] += w[i, j] * v
-    return nnz
+    """sums = w^T s in int64: :func:`int_matvec` on the transpose (integer sums are exact,
+    so its loop order, chosen by shape, gives the same sums); returns the nonzero inputs."""
+    return int_matvec(w.T, s, sums)
