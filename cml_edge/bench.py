@@ -117,8 +117,7 @@ def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
               scorer: str) -> float:
     """CPU seconds per step of the paper's planner over the pairs, on the ``scorer`` path."""
     n = len(starts)
-    res = PlanResult(np.zeros((n, 2), np.int64), np.zeros(n, np.int64),
-                     np.full((n, 101, 2), -1, np.int64))
+    res = PlanResult.empty(n, 100)
     plug = SCORERS[scorer](cml)
     c = cml.config
     t0 = time.process_time()

@@ -36,6 +36,7 @@ from cml_edge.grid.training import (
     factored_begin_walk,
     factored_end_walk,
 )
+from cml_edge.kernel import allocates
 
 
 class FusedLearner(NamedTuple):
@@ -153,7 +154,7 @@ class FusedScorer(NamedTuple):
                    np.zeros(c.n_s), np.zeros(c.n_a))
 
 
-@njit(cache=True)
+@allocates  # (a contiguous copy of W_v's columns)
 def _fused_prepare(sc, normalize, gram):
     norms_and_gram(np.ascontiguousarray(sc.Wv.T), normalize, gram, sc.norms, sc.gram)
 

@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from cml_edge.errors import InputError
+from cml_edge.kernel import kernel
 from cml_edge.rng import uniform
 
 ROUNDINGS = ("floor", "nearest", "stochastic")
@@ -117,7 +118,7 @@ def dequantize(m: np.ndarray, exp: int) -> np.ndarray:
 
 
 # compiled primitives -------------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def exponent_for(max_abs, qmax):
     """The finest exponent e with max_abs 2^-e <= qmax (max_abs > 0, finite)."""
     f, ex = math.frexp(max_abs)  # max_abs = f 2^ex, f in [0.5, 1)
@@ -130,7 +131,7 @@ def exponent_for(max_abs, qmax):
     return e
 
 
-@njit(cache=True)
+@kernel
 def round_half_even(v):
     """v rounded to the nearest integer, ties to even (as np.rint)."""
     return np.rint(v)
@@ -166,7 +167,7 @@ def max_abs(x, n):
     return (t2 if t2 > t0 else t0), finite
 
 
-@njit(cache=True)
+@kernel
 def quantize_vector(x, n, qmax, out):
     """Quantise x[:n] to mantissas out[:n] (int64) with one shared exponent, returned.
 
@@ -192,7 +193,7 @@ def quantize_vector(x, n, qmax, out):
     return e
 
 
-@njit(cache=True)
+@kernel
 def shift_round(v, k, mode, key, counter):
     """v * 2^-k rounded to an integer by ``mode``; returns (value, draws used).
 
@@ -226,7 +227,7 @@ def shift_round(v, k, mode, key, counter):
     return q, 1
 
 
-@njit(cache=True)
+@kernel
 def saturate(v, limit):
     """(v clipped to [-limit, limit], 1 if it was clipped else 0)."""
     if v > limit:
@@ -255,7 +256,7 @@ SIGMOID_LUT_MAX_ERROR = (0.25 * 0.5 / (1 << SIGMOID_IN_FRAC_BITS)
                          + 1.0 / (1.0 + math.exp(8.0 - 1.0 / (1 << SIGMOID_IN_FRAC_BITS))))
 
 
-@njit(cache=True)
+@kernel
 def sigmoid_lut(z):
     """sigmoid(z) from :data:`SIGMOID_LUT` (module docstring); ValueError if z is NaN."""
     if z != z:

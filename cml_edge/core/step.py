@@ -40,6 +40,7 @@ from cml_edge.backends.dispatch import (
     sa_rmatvec,
     sa_sigmoid,
 )
+from cml_edge.kernel import allocates
 from cml_edge.routing import routed
 
 
@@ -159,8 +160,7 @@ def seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf):
     return math.sqrt(sq)
 
 
-# (the plug-ins pass their fields on as arguments: Numba keeps that as cheap as a loop's
-# own variables, where reading them one by one inside the step costs reference counts)
+# (the plug-ins pass their fields on as arguments, read once per step)
 @njit(cache=True, inline="always")
 def _seam_learn(lr, o_t, o_1, a):
     return seam_learn(lr.q, lr.k, lr.v, o_t, o_1, a, lr.lr_q, lr.lr_k, lr.lr_v, lr.defer,
@@ -254,7 +254,7 @@ class FactoredScorer(NamedTuple):
                    np.ones(c.n_a))
 
 
-@njit(cache=True)
+@allocates  # (matrix products)
 def _factored_prepare(sc, normalize, gram):
     sc.R[:] = sc.Wv.T @ sc.Wq
     sc.M[:] = sc.Wk @ sc.Wq

@@ -172,6 +172,7 @@ class GridExplorer(NamedTuple):
     n_expl: int  # N_expl of Eq. 5
     novelty: np.ndarray  # float64[N_ACTIONS] work vector
     best: np.ndarray  # float64[K_NEAREST] work vector
+    obs: np.ndarray  # float64 (2, 2) work vectors: the observations o_t, o_{t+1}
 
     @classmethod
     def of(cls, arena: GridArena, config: Any, seed: int) -> GridExplorer:
@@ -180,7 +181,7 @@ class GridExplorer(NamedTuple):
                         dtype=np.uint64)
         return cls(free, arena.move_masks, np.zeros_like(free), np.zeros(1, np.int64), keys,
                    int(free.sum()), explore_code(config.explore), config.n_expl,
-                   np.zeros(N_ACTIONS), np.zeros(K_NEAREST))
+                   np.zeros(N_ACTIONS), np.zeros(K_NEAREST), np.zeros((2, 2)))
 
 
 @njit(cache=True, inline="always")

@@ -31,6 +31,7 @@ from cml_edge.core.step import FactoredScorer, SeamScorer, prepare, scores, wta
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena, available_moves, observe
 from cml_edge.grid.escape import WALL_NEXT, Escape, escape_choose, escape_reset
+from cml_edge.kernel import kernel
 from cml_edge.routing import routed
 
 PATHS = ("reference", "direct", "factored")
@@ -46,6 +47,13 @@ class PlanResult(NamedTuple):
     final: np.ndarray  # (trials, 2)
     steps: np.ndarray  # (trials,)
     paths: np.ndarray  # (trials, max_steps + 1, 2)
+    work: tuple  # a decision's work arrays: o, o* - o, u, the scores, the available moves
+
+    @classmethod
+    def empty(cls, trials: int, max_steps: int) -> PlanResult:
+        """The result arrays of ``trials`` plans (paths all -1) and the work arrays."""
+        return cls(np.zeros((trials, 2), np.int64), np.zeros(trials, np.int64),
+                   np.full((trials, max_steps + 1, 2), -1, np.int64), decision_buffers())
 
 
 class WTA(NamedTuple):
@@ -92,8 +100,7 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1, 2)
     goals = np.ascontiguousarray(goals, dtype=np.int64).reshape(-1, 2)
     n = len(starts)
-    res = PlanResult(np.zeros((n, 2), np.int64), np.zeros(n, np.int64),
-                     np.full((n, max_steps + 1, 2), -1, np.int64))
+    res = PlanResult.empty(n, max_steps)
     scorer = {"reference": ReferenceScorer, "direct": SeamScorer.of,
               "factored": FactoredScorer.of}[path](cml)
     chooser = Escape.of(arena.size, max_steps) if planner == "escape" else WTA()
@@ -121,13 +128,14 @@ def decision_inputs(x, y, gx, gy, origin, scale, o, dgo):
         dgo[i] -= o[i]
 
 
-@njit(cache=True)
+@kernel
 def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, max_steps,
               res):
-    """Plan every (start, goal) pair (the module docstring), for any scorer and chooser."""
+    """Plan every (start, goal) pair (the module docstring), for any scorer and chooser. A
+    :func:`~cml_edge.kernel.kernel`: no decision pays reference counts."""
     prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
-    o, dgo, u, score, mask = decision_buffers()
+    o, dgo, u, score, mask = res.work
     for trial in range(starts.shape[0]):
         reset(chooser)
         x = starts[trial, 0]

@@ -53,6 +53,7 @@ from cml_edge.grid.exploration import (
     threshold,
     visit,
 )
+from cml_edge.kernel import allocates, kernel
 from cml_edge.rng import randint
 
 PATHS = ("reference", "direct", "factored")
@@ -122,16 +123,15 @@ def make_learner(cml: CML, path: str, defer: bool, size: int):
     return SeamLearner.of(cml, defer)
 
 
-@njit(cache=True)
+@kernel
 def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
-    """Walks w0..w1-1: the training of the module docstring, for any learner."""
-    # the explorer's arrays, unpacked once: reading them from the tuple at every step
-    # would cost their reference counts at every step
+    """Walks w0..w1-1: the training of the module docstring, for any learner. A
+    :func:`~cml_edge.kernel.kernel`: no step pays reference counts."""
     free, masks, visited, n_visited, keys = (explorer.free, explorer.masks, explorer.visited,
                                              explorer.n_visited, explorer.keys)
     novelty, best = explorer.novelty, explorer.best
-    o_t = np.zeros(2)  # a cell's observation (x, y)
-    o_1 = np.zeros(2)
+    o_t = explorer.obs[0]  # a cell's observation (x, y)
+    o_1 = explorer.obs[1]
     for w in range(w0, w1):
         x, y = nth_free_cell(free, randint(keys[0], w, explorer.n_free))
         visit(visited, n_visited, x, y)
@@ -191,7 +191,7 @@ class FactoredLearner(NamedTuple):
                    np.zeros((size * size, 2), np.int64), np.zeros(1, np.int64), np.zeros(n_i))
 
 
-@njit(cache=True)
+@allocates  # (matrix products)
 def factored_begin_walk(fl):
     Wq = fl.Wq
     Wv = fl.Wv
@@ -233,7 +233,7 @@ def factored_learn(fl, o_t, o_1, a):
     return 0.0
 
 
-@njit(cache=True)
+@allocates  # (matrix products)
 def factored_end_walk(fl):
     Wq = fl.Wq
     Wk = fl.Wk

@@ -33,10 +33,10 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from cml_edge.kernel import kernel
 
 
-@njit(cache=True)
+@kernel
 def snap_to_level(g, g_min, g_max, dG):
     """The grid level nearest g, clipped to [g_min, g_max] (dG = 0: g clipped only)."""
     if dG > 0.0:
@@ -44,7 +44,7 @@ def snap_to_level(g, g_min, g_max, dG):
     return min(max(g, g_min), g_max)
 
 
-@njit(cache=True)
+@kernel
 def prog_sigma(G, scale, c0, c1, c2, g_ref, g_max):
     """sigma_prog(G) of the module docstring (micro-siemens)."""
     if scale == 0.0:

@@ -89,6 +89,7 @@ from cml_edge.backends.crossbar.config import (
     UPDATES,
 )
 from cml_edge.backends.quant import max_abs
+from cml_edge.kernel import kernel
 from cml_edge.rng import uniform, unit, word
 
 # choice codes of the parameter record (the index of the value in the config's choices)
@@ -128,7 +129,7 @@ def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, float]:
 ZIG_X, ZIG_F, ZIG_R = _ziggurat_tables()
 
 
-@njit(cache=True)
+@kernel
 def _normal_slow(key, ctr, i, x, negative):
     """The rare branches of :func:`normal_at` (~1 % of draws): the tail (layer 0) or the
     wedge test, and on rejection the whole draw again, until one is accepted."""
@@ -155,7 +156,7 @@ def _normal_slow(key, ctr, i, x, negative):
             return (-x if negative else x), ctr
 
 
-@njit(cache=True)
+@kernel
 def normal_at(key, ctr):
     """A standard normal from the stream at counters ctr, ctr+1, ...; returns (z, next ctr).
 
@@ -172,7 +173,7 @@ def normal_at(key, ctr):
     return _normal_slow(key, ctr, i, x, negative)
 
 
-@njit(cache=True)
+@kernel
 def _popcount(v):
     n = 0
     while v:
@@ -182,7 +183,7 @@ def _popcount(v):
 
 
 # reads ---------------------------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def _pulse_train(p, bl, key, ctr):
     """A stochastic pulse train of ``bl`` slots, each fired with probability min(p, 1).
 
@@ -199,7 +200,7 @@ def _pulse_train(p, bl, key, ctr):
     return b, ctr
 
 
-@njit(cache=True)
+@kernel
 def _convert_inputs(x, xs, n_in, dac, need_sq):
     """xs = DAC(x / max|x|); returns (max|x|, nonzero inputs, sum xs^2 if ``need_sq``)."""
     xmax = max_abs(x, n_in)[0]
@@ -209,7 +210,7 @@ def _convert_inputs(x, xs, n_in, dac, need_sq):
     return xmax, nnz, sq
 
 
-@njit(cache=True)
+@kernel
 def _quantise_inputs(x, xs, n_in, dac, inv, need_sq):
     """xs = DAC(x inv); returns (nonzero inputs, sum xs^2 in index order if ``need_sq``,
     else 0: only the per-device read noise needs it, and it is a sequential sum)."""
@@ -233,7 +234,7 @@ def _quantise_inputs(x, xs, n_in, dac, inv, need_sq):
     return nnz, sq
 
 
-@njit(cache=True)
+@kernel
 def _mac(Gp, Gm, xs, buf, transposed):
     """buf = (G+ - G-) xs, or (G+ - G-)^T xs: the analog sums (micro-siemens)."""
     rows, cols = Gp.shape
@@ -265,7 +266,7 @@ def _mac(Gp, Gm, xs, buf, transposed):
         buf[o] = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
 
 
-@njit(cache=True)
+@kernel
 def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rng):
     """Normalise, add the read noise, ADC (step ``adc``, 0 = ideal; clipping at
     +-``bound``), rescale; returns the saturated outputs."""
@@ -295,7 +296,7 @@ def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rn
     return saturated
 
 
-@njit(cache=True)
+@kernel
 def _abs_w_x2(Gp, Gm, xs, buf, transposed, inv_g):
     """buf_i = sum_j |G+ - G-|_ij / range xs_j^2 (or over the rows, transposed): the
     variance of the PCM_READ per-read noise over read_noise_pcm^2."""
@@ -316,7 +317,7 @@ def _abs_w_x2(Gp, Gm, xs, buf, transposed, inv_g):
         buf[o] = s
 
 
-@njit(cache=True)
+@kernel
 def _convert_outputs_var(buf, var, out, n_out, g_min, g_max, adc, bound, base, wn, scale,
                          rng):
     """:func:`_convert_outputs` with a per-output noise variance base^2 + wn^2 var_o."""
@@ -344,13 +345,13 @@ def _convert_outputs_var(buf, var, out, n_out, g_min, g_max, adc, bound, base, w
     return saturated
 
 
-@njit(cache=True)
+@kernel
 def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed, kind):
     """out = W x (or W^T x) as the array reads it (module docstring, steps 1-5, and the
     bound management's re-reads), counted as a read of ``kind`` (a counter index; -1: a
-    calibration read, counted by its caller). The state's arrays come as arguments: a
-    kernel that reads them from the state tuple pays their reference counts at every read
-    (issue 15)."""
+    calibration read, counted by its caller). The state's arrays come as arguments (issue
+    15: compiled with reference counting, reading them from the state tuple paid their
+    counts at every read; a :func:`~cml_edge.kernel.kernel` pays none)."""
     if kind >= 0:
         counters[kind] += 1
     rows, cols = Gp.shape
@@ -394,8 +395,7 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed,
 
 @njit(cache=True, inline="always")
 def read(state, x, out, transposed, kind):
-    """:func:`_read` on the state's arrays (one statement: anything else done with
-    ``state`` in the same kernel costs the reference counts back)."""
+    """:func:`_read` on the state's arrays, in one statement."""
     _read(state.Gp, state.Gm, state.xbuf, state.ybuf, state.vbuf, state.rng, state.alpha,
           state.counters, state.params, x, out, transposed, kind)
 
@@ -418,7 +418,7 @@ def xbar_sigmoid(state, z, out):
 
 
 # writes --------------------------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def _move(g, up, s, z, P):
     """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
     (step_model ``bounds``, the model of earlier releases)."""
@@ -436,7 +436,7 @@ def _move(g, up, s, z, P):
     return min(max(g, g_min), g_max)
 
 
-@njit(cache=True)
+@kernel
 def step_factor(g, up, lo, hi, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
@@ -468,7 +468,7 @@ def step_factor(g, up, lo, hi, P):
     return max(f, 0.0)
 
 
-@njit(cache=True)
+@kernel
 def _move_model(g, up, s, z, lo, hi, P):
     """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
     (module docstring), clipped to its bounds [lo, hi]."""
@@ -515,7 +515,7 @@ def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
     return h
 
 
-@njit(cache=True)
+@kernel
 def nu_of(g, z, P):
     """The drift exponent of a device written to g with fixed normal z (``drift_nu_g``)."""
     lg = math.log(max(abs(g / P.g_max), 1e-7))
@@ -530,8 +530,8 @@ def _written(age, rn, nu, nu_z, P, d, i, j, g):
     its accumulated read noise is gone, its drift exponent follows g (``drift_nu_g``).
 
     The write kernels take the state's arrays as arguments, read from the state once per
-    kernel: a ``state.field`` inside a loop costs reference counts on every pass (issue
-    15: the per-walk commit was 5x slower that way)."""
+    kernel (issue 15: compiled with reference counting, a ``state.field`` inside a loop
+    paid them on every pass and the per-walk commit was 5x slower)."""
     age[d, i, j] = 0.0
     if P.rn1f > 0.0:
         rn[d, i, j] = 0.0
@@ -539,7 +539,7 @@ def _written(age, rn, nu, nu_z, P, d, i, j, g):
         nu[d, i, j] = nu_of(g, nu_z[d, i, j], P)
 
 
-@njit(cache=True)
+@kernel
 def set_pulses(target, P):
     """SET pulses the mean device (s = 1, no noise, nominal bounds) needs from g_min to
     ``target``: what a refresh's write-verify costs (at most 100,000)."""
@@ -556,7 +556,7 @@ def set_pulses(target, P):
     return n
 
 
-@njit(cache=True)
+@kernel
 def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key, ctr):
     """Refresh pair (i, j) if it is saturated (``refresh``): RESET both devices, then
     write-verify the pair's difference onto the device that was larger."""
@@ -592,7 +592,7 @@ def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, 
     return ctr
 
 
-@njit(cache=True)
+@kernel
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
@@ -645,7 +645,7 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
     return ctr
 
 
-@njit(cache=True)
+@kernel
 def _program_device(G, delta, P, key, ctr, lo, hi):
     """Write-verify a device to the level nearest G + delta, with programming noise,
     within its bounds [lo, hi] (g_min / g_max unless ``bound_dtod_*``)."""
@@ -664,7 +664,7 @@ def _program_device(G, delta, P, key, ctr, lo, hi):
     return min(max(target, lo), hi), ctr
 
 
-@njit(cache=True)
+@kernel
 def _pulsed_update(state, post, pre, lr):
     Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
                                    state.wn)
@@ -725,7 +725,7 @@ def _pulsed_update(state, post, pre, lr):
     c[DEVICES_WRITTEN] += per_pair * pairs
 
 
-@njit(cache=True)
+@kernel
 def _analog_update(state, post, pre, lr):
     """The exact change (an ideal device), stochastically rounded to the grid if any. A
     SET-only pair puts the whole change on G+ (raising w) or G- (lowering it)."""
@@ -801,7 +801,7 @@ def xbar_outer_update(state, post, pre, lr, defer):
         _analog_update(state, post, pre, lr)
 
 
-@njit(cache=True)
+@kernel
 def _commit(state):
     Gp = state.Gp
     Gm = state.Gm
@@ -879,7 +879,7 @@ def xbar_commit(state):
 
 
 # construction and time -----------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def xbar_program(state, W):
     """Draw the per-device constants and program W (the array's construction).
 
@@ -979,7 +979,7 @@ def xbar_program(state, W):
     return np.int64(ctr - start)
 
 
-@njit(cache=True)
+@kernel
 def _calibration_readout(state):
     """The drift-compensation readout through the periphery (aihwkit
     ``GlobalDriftCompensation``): one read per input line with a one-hot input, the mean
@@ -999,7 +999,7 @@ def _calibration_readout(state):
     return max(total / (rows * cols), 1e-4)
 
 
-@njit(cache=True)
+@kernel
 def xbar_elapse(state, seconds):
     """Let ``seconds`` pass: each unstuck device drifts from its age a to a + seconds,
     G <- G ((a + seconds + t0) / (a + t0))^-nu (= G0 ((t + t0) / t0)^-nu since its last

@@ -71,6 +71,7 @@ from cml_edge.backends.quant import (
     sigmoid_lut,
 )
 from cml_edge.errors import InputError
+from cml_edge.kernel import kernel
 from cml_edge.rng import uniform
 
 # counter indices (names in FixedArray.counter_names)
@@ -83,7 +84,7 @@ NEURON_BITS = 24  # the neuron input a read's sum is shifted into
 BIG_SHIFT = np.int64(1) << np.int64(62)
 
 
-@njit(cache=True)
+@kernel
 def lr_mantissa(lr, lr_bits):
     """lr as (m, e) with m an lr_bits-bit mantissa (nearest, ties to even), lr ~ m 2^e."""
     if not abs(lr) <= 1.7976931348623157e308:
@@ -100,7 +101,7 @@ def lr_mantissa(lr, lr_bits):
     return (mi if lr > 0 else -mi), e
 
 
-@njit(cache=True)
+@kernel
 def _emit(p, sums, n, ex, check, shift, out, strict):
     """out[:n] = (saturated sums >> shift) x 2^(e_w + ex + shift); returns saturations."""
     e_out = p.exp + ex + shift
@@ -133,7 +134,7 @@ def fixed_rmatvec(state, y, out):
     _read(state.mantissa, state.params, state.xq, state.sums, state.counters, y, out, True)
 
 
-@njit(cache=True)
+@kernel
 def _read(m, p, xq, sums, c, x, out, transposed):
     """out = W x (W^T x if ``transposed``): the input quantised, the exact integer MAC,
     the sums emitted. The state's arrays come one by one (one statement in the seam's
@@ -245,7 +246,7 @@ def _stochastic_line(line, limit, fa, factors, pk, two_k, key, ctr):
     return touched, written, changed, sats, ctr
 
 
-@njit(cache=True)
+@kernel
 def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     """target += round(rf cq^T 2^-k) on the cells whose factors are both nonzero.
 
@@ -348,7 +349,7 @@ def fixed_outer_update(state, post, pre, lr, defer):
                   state.tally, state.counters, post, pre, lr, defer)
 
 
-@njit(cache=True)
+@kernel
 def _outer_update(m, acc, p, rng, rf, cq, tally, c, post, pre, lr, defer):
     """W += lr post pre^T (or into the accumulator when ``defer``) on the state's arrays
     (passed one by one: see :func:`cml_edge.backends.crossbar.kernels.read`)."""
@@ -389,7 +390,7 @@ def _outer_update(m, acc, p, rng, rf, cq, tally, c, post, pre, lr, defer):
                               "clipped and the array is left as it is")
 
 
-@njit(cache=True)
+@kernel
 def fixed_commit(state):
     m = state.mantissa
     acc = state.acc

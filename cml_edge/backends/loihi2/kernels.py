@@ -96,6 +96,7 @@ from cml_edge.backends.quant import (
     quantize_vector,
 )
 from cml_edge.errors import InputError
+from cml_edge.kernel import kernel
 from cml_edge.rng import uniform
 
 # counter indices (names in Loihi2Array.counter_names)
@@ -125,7 +126,7 @@ MIXED, EXCITATORY, INHIBITORY = 0, 1, 2  # indices in lava.SIGN_MODES
 
 
 # the neuron's 24-bit input ------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def wrap24(d):
     """(u, wrapped): d into the 24-bit u's range (-2^23, 2^23] modulo 2^24, as
     ``PyLifModelBitAcc`` wraps u (it keeps +2^23 and wraps -2^23 to +2^23); wrapped is 1
@@ -135,7 +136,7 @@ def wrap24(d):
     return ((d + U_HALF - 1) & U_MASK) - U_HALF + 1, 1
 
 
-@njit(cache=True)
+@kernel
 def neuron_input(total, exp):
     """(u, wrapped): the dendritic sum ``total`` shifted by the weight exponent (Dense:
     a floor right shift by -exp, or left by exp), then << 6 into the 24-bit u."""
@@ -144,7 +145,7 @@ def neuron_input(total, exp):
 
 
 # inputs as graded-spike payloads ---------------------------------------------------------
-@njit(cache=True)
+@kernel
 def quantize_at(x, n, e, out):
     """out[:n] = rint(x 2^-e) (ties to even); returns the L1 norm of out[:n]."""
     l1 = np.int64(0)
@@ -160,7 +161,7 @@ def quantize_at(x, n, e, out):
     return l1
 
 
-@njit(cache=True)
+@kernel
 def encode(x, n, qmax, l1_max, safe, out):
     """Payloads out[:n] of x[:n] and their scale e (x ~ out 2^e).
 
@@ -187,7 +188,7 @@ def encode(x, n, qmax, l1_max, safe, out):
     return e
 
 
-@njit(cache=True)
+@kernel
 def _emit(p, sums, n, e, out):
     """out[:n] = the neuron inputs of the dendritic sums, as floats; returns the wraps."""
     e_out = e - p.scale_exp - ACT_SHIFT
@@ -211,7 +212,7 @@ def loihi2_rmatvec(state, y, out):
     _read(state.w, state.params, state.xq, state.sums, state.counters, y, out, True)
 
 
-@njit(cache=True)
+@kernel
 def _read(w, p, s, sums, c, x, out, transposed):
     """out = W x (W^T x if ``transposed``): graded spikes, the exact dendritic sums, the
     neuron inputs; on the state's arrays one by one (see
@@ -234,7 +235,7 @@ def _read(w, p, s, sums, c, x, out, transposed):
 
 
 # the learning engine ----------------------------------------------------------------------
-@njit(cache=True)
+@kernel
 def lr_literal(lr):
     """lr as the rule literal (m, e): lr ~ m 2^e with |m| in 4..7 (nearest, ties to even;
     a 4-bit signed mantissa), m carrying lr's sign; (0, 0) for lr = 0."""
@@ -252,7 +253,7 @@ def lr_literal(lr):
     return (mi if lr > 0 else -mi), e
 
 
-@njit(cache=True)
+@kernel
 def engine_term(m, x, y, k):
     """(term, saturated): one product term as ``LearningRuleApplierBitApprox`` forms it
     for the rule ``m 2^(k - 7) x1 y1`` (k the stored exponent e + 7): (m x y) >> 3, << k
@@ -270,7 +271,7 @@ def engine_term(m, x, y, k):
     return v, 0
 
 
-@njit(cache=True)
+@kernel
 def accumulate(a, term):
     """(a + term clipped to [-32769, 32767], saturated): Lava's clip of the result."""
     r = a + term
@@ -281,7 +282,7 @@ def accumulate(a, term):
     return r, 0
 
 
-@njit(cache=True)
+@kernel
 def write_back(a, r, sign, w_min, w_max):
     """(w, sign_clipped, saturated): the accumulator a (7 fraction bits) written back
     to a weight as ``_apply_learning_rules`` does: saturated by sign mode (excitatory
@@ -302,7 +303,7 @@ def write_back(a, r, sign, w_min, w_max):
     return q, clipped, 0
 
 
-@njit(cache=True)
+@kernel
 def _trailing_zeros(v, n):
     """The number of low zero bits every nonzero v[:n] has (62 if all are zero): those of
     the OR of them all (v and -v have the same; one pass that vectorises)."""
@@ -318,7 +319,7 @@ def _trailing_zeros(v, n):
     return tz
 
 
-@njit(cache=True)
+@kernel
 def _max_abs(v, n):
     top = np.int64(0)
     for i in range(n):
@@ -328,7 +329,7 @@ def _max_abs(v, n):
     return top
 
 
-@njit(cache=True)
+@kernel
 def coarsen(deficit, X, nx, Y, ny):
     """(cx, cy): how many bits coarser the pre (X) and post (Y) traces are formed so
     that the rule's exponent rises by ``deficit``: first the low bits all of a vector's
@@ -355,7 +356,7 @@ def coarsen(deficit, X, nx, Y, ny):
     return cx, cy
 
 
-@njit(cache=True)
+@kernel
 def end_epoch(state):
     """The write-back of a learning epoch (module docstring, step 3); the accumulator
     then holds w << 7 again."""
@@ -436,7 +437,7 @@ def _term_line(line, mf, factors, k):
     return terms, psat, asat
 
 
-@njit(cache=True)
+@kernel
 def _add_terms(acc, m, X, cols, Y, rows, k, tally):
     """acc += the product terms of the nonzero traces; tally[:3] = terms formed,
     product saturations, accumulator saturations. Narrow matrices (a one-hot pre) are
@@ -463,7 +464,7 @@ def _add_terms(acc, m, X, cols, Y, rows, k, tally):
     tally[2] = asat
 
 
-@njit(cache=True)
+@kernel
 def _add_exact(state, post, pre, lr, tally):
     """The ``exact`` terms (not the chip): lr post_i pre_j in accumulator units, floor plus
     one uniform draw per term (up with probability the fraction), clipped and added as
@@ -513,7 +514,7 @@ def _add_exact(state, post, pre, lr, tally):
     return ctr - ctr0
 
 
-@njit(cache=True)
+@kernel
 def loihi2_outer_update(state, post, pre, lr, defer):
     w = state.w
     p = state.params
@@ -560,7 +561,7 @@ def loihi2_outer_update(state, post, pre, lr, defer):
             end_epoch(state)
 
 
-@njit(cache=True)
+@kernel
 def loihi2_commit(state):
     state.counters[COMMITS] += 1
     end_epoch(state)
