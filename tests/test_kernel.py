@@ -11,6 +11,8 @@ from cml_edge.backends.loihi2 import kernels as loihi2
 from cml_edge.grid.planning import plan_loop
 from cml_edge.grid.training import train_loop
 from cml_edge.kernel import allocates, kernel
+from cml_edge.robot import planning as robot_planning
+from cml_edge.robot import training as robot_training
 
 
 def test_a_kernel_computes_in_place():
@@ -53,8 +55,9 @@ def test_a_kernel_that_allocates_is_refused():
 
 
 @pytest.mark.parametrize("dispatcher", [
-    train_loop, plan_loop, crossbar._read, crossbar._commit, crossbar._pulsed_update,
-    fixed._read, fixed._outer_update, fixed.fixed_commit, loihi2.loihi2_outer_update,
+    train_loop, plan_loop, robot_training.train_loop, robot_planning.plan_loop,
+    crossbar._read, crossbar._commit, crossbar._pulsed_update, fixed._read,
+    fixed._outer_update, fixed.fixed_commit, loihi2.loihi2_outer_update,
 ])
 def test_the_hot_loops_and_device_kernels_are_kernels(dispatcher):
     assert dispatcher.targetoptions["_nrt"] is False

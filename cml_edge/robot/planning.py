@@ -28,6 +28,7 @@ from numba import njit
 from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import SeamScorer, prepare, scores, wta
 from cml_edge.errors import InputError
+from cml_edge.kernel import kernel
 from cml_edge.protocol import STREAM_ROBOT_GOALS
 from cml_edge.rng import stream_key, uniform
 from cml_edge.robot.observation import XY, RobotCMLSettings, observe, observe_goal
@@ -36,6 +37,7 @@ from cml_edge.robot.sim import (
     KinematicSim,
     RobotConfig,
     RobotSim,
+    set_pose,
     sim_available,
     sim_reset,
     sim_step,
@@ -93,31 +95,32 @@ def first_within(path, gx, gy, radius):
     return -1
 
 
-@njit(cache=True)
+def drive_work(n_i: int) -> tuple:
+    """The planning loop's work arrays: u and the scores, the pose and the next one, o, o*
+    and o* - o (``n_i``), the available actions."""
+    return (np.zeros(N_ROBOT_ACTIONS), np.zeros(N_ROBOT_ACTIONS), np.zeros(3), np.zeros(3),
+            np.zeros(n_i), np.zeros(n_i), np.zeros(n_i), np.zeros(N_ROBOT_ACTIONS, np.uint8))
+
+
+@kernel
 def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
-              stop_each_step, sub, res):
+              stop_each_step, sub, work, res):
     """Drive every (start, goal) (the module docstring), for any scorer and simulator;
-    ``sub`` ((steps per action + 1, 3)) receives each action's simulation steps."""
+    ``sub`` ((steps per action + 1, 3)) receives each action's simulation steps, ``work``
+    is :func:`drive_work`'s. A :func:`~cml_edge.kernel.kernel`: no decision pays
+    reference counts."""
     n_i = 2 if frame.mode == XY else 4
-    n_a = N_ROBOT_ACTIONS
     prepare(scorer, normalize, False)
     final, steps, reached, lengths, poses, actions, trails, trail_len = res
     keep = trails.shape[1] > 0
-    u = np.zeros(n_a)
-    score = np.zeros(n_a)
-    pose = np.zeros(3)
-    new = np.zeros(3)
-    o = np.zeros(n_i)
-    o_star = np.zeros(n_i)
-    dgo = np.zeros(n_i)
-    mask = np.zeros(n_a, np.uint8)
+    u, score, pose, new, o, o_star, dgo, mask = work
     for trial in range(starts.shape[0]):
         sim_reset(sim, starts[trial], pose)
         gx = goals[trial, 0]
         gy = goals[trial, 1]
-        poses[trial, 0] = pose
+        set_pose(poses[trial, 0], pose)
         if keep:
-            trails[trial, 0] = pose
+            set_pose(trails[trial, 0], pose)
         kept = 1
         taken = 0
         length = 0.0
@@ -143,13 +146,13 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
             length += polyline_length(sub[: last + 1])
             if keep:
                 for i in range(1, last + 1):
-                    trails[trial, kept] = sub[i]
+                    set_pose(trails[trial, kept], sub[i])
                     kept += 1
-            pose[:] = new
+            set_pose(pose, new)
             actions[trial, taken] = a
             taken += 1
-            poses[trial, taken] = pose
-        final[trial] = pose
+            set_pose(poses[trial, taken], pose)
+        set_pose(final[trial], pose)
         steps[trial] = taken
         reached[trial] = math.hypot(pose[0] - gx, pose[1] - gy) <= radius
         lengths[trial] = length
@@ -185,7 +188,7 @@ def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goal
     loop = plan_loop if compiled else plan_loop.py_func
     sub = np.zeros((sim.config.steps_per_action + 1, 3))
     loop(scorer, sim.plugin, settings.frame(), cml.config.utility == "normalized", starts, goals,
-         max_actions, float(radius), stop == "step", sub, res)
+         max_actions, float(radius), stop == "step", sub, drive_work(settings.n_i), res)
     return res
 
 

@@ -256,8 +256,16 @@ class Kinematics(NamedTuple):
 
 
 @njit(cache=True, inline="always")
+def set_pose(dst, src):
+    """dst[:] = src for a pose (x, y, theta), element by element: an array copied into a
+    slice allocates a temporary, which the loops, kernels (:mod:`cml_edge.kernel`), cannot."""
+    for i in range(3):
+        dst[i] = src[i]
+
+
+@njit(cache=True, inline="always")
 def kinematics_reset(k, start, pose):
-    pose[:] = start
+    set_pose(pose, start)
 
 
 @njit(cache=True, inline="always")

@@ -29,6 +29,7 @@ from cml_edge.core.cml import CML
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
 from cml_edge.errors import InputError
+from cml_edge.kernel import kernel
 from cml_edge.protocol import STREAM_ROBOT_EXPLORE, STREAM_ROBOT_START
 from cml_edge.rng import stream_key, uniform
 from cml_edge.robot.observation import XY, RobotCMLSettings, observe
@@ -37,6 +38,7 @@ from cml_edge.robot.sim import (
     KinematicSim,
     RobotSim,
     nth_available,
+    set_pose,
     sim_available,
     sim_reset,
     sim_step,
@@ -79,18 +81,20 @@ def explore_action(mask, count, key, counter):
     return nth_available(mask, min(r, count - 1))
 
 
-@njit(cache=True)
-def train_loop(learner, sim, frame, keys, lo, hi, w0, w1, steps, errors, o_sq):
+def walk_work(n_i: int) -> tuple:
+    """The training loop's work arrays: the start pose, the pose and the next one, o_t and
+    o_{t+1} (``n_i``), the available actions, and an empty path (no trail kept)."""
+    return (np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(n_i), np.zeros(n_i),
+            np.zeros(N_ROBOT_ACTIONS, np.uint8), np.zeros((0, 3)))
+
+
+@kernel
+def train_loop(learner, sim, frame, keys, lo, hi, w0, w1, steps, errors, o_sq, work):
     """Walks w0..w1-1 (the module docstring): the mean training error of each walk in
-    ``errors`` and its mean |o_{t+1}|^2 in ``o_sq``."""
+    ``errors`` and its mean |o_{t+1}|^2 in ``o_sq``; ``work`` from :func:`walk_work`. A
+    :func:`~cml_edge.kernel.kernel`: no step pays reference counts."""
     n_i = 2 if frame.mode == XY else 4
-    start = np.zeros(3)
-    pose = np.zeros(3)
-    new = np.zeros(3)
-    o_t = np.zeros(n_i)
-    o_1 = np.zeros(n_i)
-    mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
-    nopath = np.zeros((0, 3))
+    start, pose, new, o_t, o_1, mask, nopath = work
     for w in range(w0, w1):
         walk_start(keys[0], w, lo, hi, start)
         sim_reset(sim, start, pose)
@@ -110,7 +114,7 @@ def train_loop(learner, sim, frame, keys, lo, hi, w0, w1, steps, errors, o_sq):
             total += learn(learner, o_t, o_1, a)
             for i in range(n_i):
                 osum += o_1[i] * o_1[i]
-            pose[:] = new
+            set_pose(pose, new)
             done += 1
         total += end_walk(learner)
         errors[w] = total / max(done, 1)
@@ -142,10 +146,11 @@ def train_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Rob
     o_sq = np.zeros(config.walks)
     rc = sim.config
     chunk = 10
+    work = walk_work(settings.n_i)
     for w0 in range(0, config.walks, chunk):
         w1 = min(w0 + chunk, config.walks)
         loop(learner, sim.plugin, settings.frame(), keys, rc.lo, rc.hi, w0, w1, config.steps,
-             errors, o_sq)
+             errors, o_sq, work)
         if on_walk is not None:
             on_walk(w1)
     return {"train_error": errors, "eq3_gain": float(cml.config.lr_q * config.steps * o_sq.max()),
