@@ -5,9 +5,10 @@ Numba's runtime counts the references to every array a compiled function holds (
 argument, a field read from a state tuple, a view): an atomic increment when it gets the
 array and a decrement when it lets go. LLVM removes the pairs only in simple control flow;
 in a kernel with several exits (a raise, an early return, a branch per device mode) they
-stay, one pair per array per call, and a read of a 22-array crossbar state paid dozens of
-them. Measured with ``perf`` on an int8 training (symbols from ``gdb`` on the running
-process), ``NRT_incref`` and ``NRT_decref`` took 30 % of the time.
+stay, one pair per array per call (the compiled code of a crossbar read, ``_read`` and
+the helpers it calls, held 17 increment calls). Measured with ``perf`` on an int8
+training (symbols from ``gdb`` on the running process), ``NRT_incref`` and
+``NRT_decref`` took 30 % of the time.
 
 A kernel allocates nothing and hands no array back, so nothing in it needs counting:
 :func:`kernel` compiles it (cached) without the runtime (Numba's ``_nrt=False``). Numba
