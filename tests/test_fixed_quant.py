@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numba import njit
 
 from cml_edge.backends.fixed.kernels import lr_mantissa
 from cml_edge.backends.quant import (
@@ -20,9 +21,12 @@ from cml_edge.backends.quant import (
     SIGMOID_LUT,
     SIGMOID_LUT_MAX_ERROR,
     STOCHASTIC,
+    binary_exponent,
     check_bits,
     choose_exponent,
     exponent_for,
+    max_abs,
+    pow2,
     qmax_of,
     quantize_matrix,
     quantize_vector,
@@ -98,6 +102,51 @@ def test_quantize_vector_within_half_lsb(xs, bits):
     e = quantize_vector(x, len(x), qmax_of(bits), out)
     assert np.abs(out).max() <= qmax_of(bits)
     assert np.all(np.abs(np.ldexp(out.astype(float), e) - x) <= np.ldexp(0.5, e))
+
+
+@njit
+def _max_abs(x, n):
+    return max_abs(x, n)
+
+
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=40))
+@FAST
+def test_max_abs_is_the_float_max(xs):
+    """The integer max over bit patterns (issue 15) is max |x| over the non-NaN entries,
+    bit for bit, and flags any non-finite entry; subnormals, -0.0, inf and NaN included."""
+    x = np.array(xs, dtype=np.float64)
+    top, finite = _max_abs(x, len(x))
+    a = np.abs(x[~np.isnan(x)])
+    expected = a.max() if a.size else 0.0
+    assert finite == bool(np.isfinite(x).all())
+    assert top == expected and not math.copysign(1.0, top) < 0  # +0.0, never -0.0
+    if len(x) > 1:  # only a prefix is read
+        assert _max_abs(x, 1)[0] == (0.0 if np.isnan(x[0]) else abs(x[0]))
+
+
+@njit
+def _pow2_and_exponent(ns, xs, p, ex):
+    for i in range(ns.shape[0]):
+        p[i] = pow2(ns[i])
+    for i in range(xs.shape[0]):
+        ex[i] = binary_exponent(xs[i])
+
+
+def test_pow2_and_binary_exponent_match_libm():
+    """The bit-pattern shortcuts (issue 15) equal ldexp(1, n) for every n from below the
+    subnormals to past overflow, and frexp's exponent for normal, subnormal and negative x."""
+    ns = np.arange(-1100, 1101)
+    rng = np.random.default_rng(5)
+    xs = np.concatenate([rng.normal(0, 1, 300) * 10.0 ** rng.uniform(-300, 300, 300),
+                         [5e-324, -5e-324, 2.2e-308, 2.2250738585072014e-308,
+                          1.7976931348623157e308, -1.0, 0.5, 1.0, 3.0]])
+    xs = xs[xs != 0]
+    p = np.zeros(len(ns))
+    ex = np.zeros(len(xs), np.int64)
+    _pow2_and_exponent(ns, xs, p, ex)
+    with np.errstate(over="ignore"):
+        assert np.array_equal(p, np.ldexp(1.0, ns))  # inf past the largest double
+    assert ex.tolist() == [math.frexp(float(x))[1] for x in xs]
 
 
 def test_bad_format_values():

@@ -39,7 +39,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 from cml_edge.errors import InputError
 from cml_edge.kernel import kernel
@@ -49,7 +50,6 @@ ROUNDINGS = ("floor", "nearest", "stochastic")
 FLOOR, NEAREST, STOCHASTIC = 0, 1, 2
 MIN_BITS, MAX_BITS = 2, 16
 MAX_EXPONENT = 60  # |e| above this is no sensible scale for a float64 weight
-MAX_FLOAT = 1.7976931348623157e308
 
 
 class SaturationError(InputError):
@@ -118,15 +118,35 @@ def dequantize(m: np.ndarray, exp: int) -> np.ndarray:
 
 
 # compiled primitives -------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def pow2(n):
+    """2.0^n, exactly: for -1022 <= n <= 1023 (a normal double) the bit pattern with
+    exponent field n + 1023, else ``math.ldexp``. Issue 15: a libm call for every read,
+    quantisation and update (``scalbn``, ``frexp``) was ~4 % of an int8 training."""
+    if -1022 <= n <= 1023:
+        return _from_bits(np.uint64(n + 1023) << np.uint64(52))
+    return math.ldexp(1.0, n)
+
+
+@njit(cache=True, inline="always")
+def binary_exponent(x):
+    """The exponent of ``math.frexp(x)`` (x = f 2^ex, 0.5 <= |f| < 1) for a finite x != 0:
+    read from the exponent field of a normal double, from ``frexp`` for a subnormal."""
+    field = np.int64((_bits(x) >> np.uint64(52)) & np.uint64(0x7FF))
+    return field - 1022 if field != 0 else math.frexp(x)[1]
+
+
 @kernel
 def exponent_for(max_abs, qmax):
     """The finest exponent e with max_abs 2^-e <= qmax (max_abs > 0, finite)."""
-    f, ex = math.frexp(max_abs)  # max_abs = f 2^ex, f in [0.5, 1)
+    ex = binary_exponent(max_abs)  # max_abs = f 2^ex, f in [0.5, 1)
     bits = 0
     while (1 << bits) <= qmax:
         bits += 1  # qmax = 2^bits - 1, so 2^(bits-1) <= qmax < 2^bits
     e = ex - bits  # max_abs 2^-e = f 2^bits in [2^(bits-1), 2^bits)
-    if math.ldexp(max_abs, -e) > qmax:
+    # a normal max_abs times 2^-e lands in [2^(bits-1), 2^bits): exact; a subnormal one
+    # has -e > 1023 and takes ldexp
+    if (max_abs * pow2(-e) if -e <= 1023 else math.ldexp(max_abs, -e)) > qmax:
         e += 1
     return e
 
@@ -137,34 +157,59 @@ def round_half_even(v):
     return np.rint(v)
 
 
+def _bitcast(src: types.Type, dst: types.Type):
+    """A compiled function that reinterprets the bits of a ``src`` value as a ``dst`` (a
+    register move, no conversion)."""
+    def cast(typingctx, x):
+        if x != src:
+            return None
+
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(dst))
+        return dst(src), codegen
+    return intrinsic(cast)
+
+
+_bits = _bitcast(types.float64, types.uint64)  # a float64's IEEE 754 bit pattern
+_from_bits = _bitcast(types.uint64, types.float64)  # the float64 of a bit pattern
+
+
+_MAGNITUDE = np.uint64(0x7FFF_FFFF_FFFF_FFFF)  # every bit but the sign
+_INF_BITS = np.uint64(0x7FF0_0000_0000_0000)  # +inf; NaNs lie above it
+
+
 @njit(cache=True, inline="always")
 def max_abs(x, n):
-    """(max |x[:n]|, whether all of them are finite); 0 for n = 0. A NaN is passed over in
-    the max (``a > top`` is false for it). Four running maxima: max is exact, so any
-    order gives the same value, and four independent chains run ~2x faster than one
-    (issue 15)."""
-    t0 = t1 = t2 = t3 = 0.0
-    finite = True
-    i = 0
-    while i + 4 <= n:
-        a0 = abs(x[i])
-        a1 = abs(x[i + 1])
-        a2 = abs(x[i + 2])
-        a3 = abs(x[i + 3])
-        finite &= (a0 <= MAX_FLOAT) & (a1 <= MAX_FLOAT) & (a2 <= MAX_FLOAT) & (a3 <= MAX_FLOAT)
-        t0 = a0 if a0 > t0 else t0
-        t1 = a1 if a1 > t1 else t1
-        t2 = a2 if a2 > t2 else t2
-        t3 = a3 if a3 > t3 else t3
-        i += 4
-    while i < n:
-        a0 = abs(x[i])
-        finite &= a0 <= MAX_FLOAT
-        t0 = a0 if a0 > t0 else t0
-        i += 1
-    t0 = t1 if t1 > t0 else t0
-    t2 = t3 if t3 > t2 else t2
-    return (t2 if t2 > t0 else t0), finite
+    """(max |x[:n]|, whether all of them are finite); 0 for n = 0.
+
+    For non-negative float64 values, ordering the bit patterns as unsigned integers
+    orders the values, so the largest pattern of |x| (the sign bit cleared) is the
+    pattern of max |x|: an integer max, exact in any order, that vectorises (issue 15: a
+    float max with NaN-safe selects does not; 68 -> 21 ns for 256 entries, measured with a
+    throwaway loop). Patterns at or above that of inf are non-finite: then a float loop
+    gives the max with any NaN passed over (``a > top`` is false for it).
+    """
+    top = np.uint64(0)
+    for i in range(n):
+        b = _bits(x[i]) & _MAGNITUDE
+        top = b if b > top else top
+    if top < _INF_BITS:
+        return _from_bits(top), True
+    t = 0.0
+    for i in range(n):
+        a = abs(x[i])
+        t = a if a > t else t
+    return t, False
+
+
+@njit(cache=True, inline="always")
+def count_nonzero(v, n):
+    """How many of v[:n] are nonzero (the cells an outer update touches are the nonzero
+    row factors times the nonzero column factors, counted once instead of per cell)."""
+    count = 0
+    for i in range(n):
+        count += v[i] != 0
+    return count
 
 
 @kernel
@@ -187,7 +232,7 @@ def quantize_vector(x, n, qmax, out):
         for i in range(n):
             out[i] = np.int64(round_half_even(math.ldexp(x[i], -e)))
         return e
-    scale = math.ldexp(1.0, -e)  # multiplying by a power of two is exact here
+    scale = pow2(-e)  # multiplying by a power of two is exact here
     for i in range(n):
         out[i] = np.int64(round_half_even(x[i] * scale))
     return e

@@ -63,8 +63,10 @@ from cml_edge.backends.quant import (
     NEAREST,
     STOCHASTIC,
     SaturationError,
+    count_nonzero,
     int_matvec,
     int_rmatvec,
+    pow2,
     quantize_vector,
     saturate,
     shift_round,
@@ -115,7 +117,7 @@ def _emit(p, sums, n, ex, check, shift, out, strict):
         if sats and strict:
             raise SaturationError("read accumulator overflow (strict mode)")
     if -1000 < e_out < 1000:  # a power of two that is a normal double: exact multiply
-        scale = math.ldexp(1.0, e_out)
+        scale = pow2(e_out)
         for i in range(n):
             out[i] = float(sums[i] >> shift) * scale
     else:
@@ -197,11 +199,12 @@ def _saturating_add(target, i, j, d, limit):
 
 
 @njit(cache=True, inline="always")
-def _exact_line(line, limit, fa, factors, nk):
+def _exact_line(line, limit, fa, factors, nk, count_changed):
     """line[b] += (fa factors[b]) 2^nk, saturating at +-limit, where factors[b] != 0 (the
     other cells keep their value): the exact case of :func:`_add_outer`, written without
-    branches so that it vectorises. Returns (cells touched, changed, saturated)."""
-    touched = 0
+    branches so that it vectorises. Returns (changed if ``count_changed`` else 0,
+    saturated); LLVM compiles the loop twice on the flag, so a caller that needs no
+    change count pays none (issue 15: 0.50 -> 0.36 ns per cell in a throwaway loop)."""
     changed = 0
     sats = 0
     for b in range(line.shape[0]):
@@ -210,19 +213,19 @@ def _exact_line(line, limit, fa, factors, nk):
         t = old + ((fa * factors[b]) << nk)
         new = min(max(t, -limit), limit) if live else old
         line[b] = new
-        touched += live
-        changed += new != old
+        if count_changed:
+            changed += new != old
         sats += t != new
-    return touched, changed, sats
+    return changed, sats
 
 
 @njit(cache=True, inline="always")
-def _stochastic_line(line, limit, fa, factors, pk, two_k, key, ctr):
+def _stochastic_line(line, limit, fa, factors, pk, two_k, key, ctr, count_changed):
     """line[b] += round(fa factors[b] 2^-pk) with stochastic rounding where factors[b] != 0
     (0 < pk <= 62), drawing as :func:`_scaled` does (a product draws when its factor is
     nonzero and it has a fraction, at the next counter), with no other branch in the
-    loop. Returns (cells touched, written, changed, saturated, the next counter)."""
-    touched = 0
+    loop. Returns (written, changed if ``count_changed`` else 0, saturated, the next
+    counter)."""
     written = 0
     changed = 0
     sats = 0
@@ -239,19 +242,21 @@ def _stochastic_line(line, limit, fa, factors, pk, two_k, key, ctr):
         t = old + d
         new = min(max(t, -limit), limit)
         line[b] = new
-        touched += fb != 0
         written += live
-        changed += new != old
+        if count_changed:
+            changed += new != old
         sats += t != new
-    return touched, written, changed, sats, ctr
+    return written, changed, sats, ctr
 
 
 @kernel
-def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
+def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally, count_changed):
     """target += round(rf cq^T 2^-k) on the cells whose factors are both nonzero.
 
-    ``top`` bounds |rf[i] cq[j]|. Saturates at +-limit; tally[:4] gets writes, changes,
-    saturations, draws. Returns the number of cells touched (integer products formed).
+    ``top`` bounds |rf[i] cq[j]|. Saturates at +-limit; tally[:4] gets writes, changes
+    (0 unless ``count_changed``: the per-walk accumulator does not count them),
+    saturations, draws. Returns the number of cells touched (integer products formed):
+    the nonzero row factors times the nonzero column factors.
     Narrow matrices (cols <= NARROW) are walked column by column (a one-hot pre touches
     one column only), wide ones row by row; the order fixes which random draw each
     cell gets.
@@ -262,7 +267,7 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
     written = 0
     changed = 0
     sats = 0
-    touched = 0
+    touched = count_nonzero(rf, rows) * count_nonzero(cq, cols)
     big = k < 0 and (k < -62 or top >= (BIG_SHIFT >> np.int64(-k)))
     nk = np.int64(-k) if k < 0 else np.int64(0)
     pk = np.int64(k) if k > 0 else np.int64(0)
@@ -272,15 +277,13 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
         if cols <= NARROW:
             for a in range(cols):
                 if cq[a] != 0:
-                    t, c, s = _exact_line(target[:, a], limit, cq[a], rf, nk)
-                    touched += t
+                    c, s = _exact_line(target[:, a], limit, cq[a], rf, nk, count_changed)
                     changed += c
                     sats += s
         else:
             for a in range(rows):
                 if rf[a] != 0:
-                    t, c, s = _exact_line(target[a], limit, rf[a], cq, nk)
-                    touched += t
+                    c, s = _exact_line(target[a], limit, rf[a], cq, nk, count_changed)
                     changed += c
                     sats += s
         written = touched  # a nonzero exact product is a nonzero change
@@ -288,18 +291,16 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
         if cols <= NARROW:
             for a in range(cols):
                 if cq[a] != 0:
-                    t, w, c, s, ctr = _stochastic_line(target[:, a], limit, cq[a], rf, pk,
-                                                       two_k, key, ctr)
-                    touched += t
+                    w, c, s, ctr = _stochastic_line(target[:, a], limit, cq[a], rf, pk,
+                                                    two_k, key, ctr, count_changed)
                     written += w
                     changed += c
                     sats += s
         else:
             for a in range(rows):
                 if rf[a] != 0:
-                    t, w, c, s, ctr = _stochastic_line(target[a], limit, rf[a], cq, pk,
-                                                       two_k, key, ctr)
-                    touched += t
+                    w, c, s, ctr = _stochastic_line(target[a], limit, rf[a], cq, pk,
+                                                    two_k, key, ctr, count_changed)
                     written += w
                     changed += c
                     sats += s
@@ -312,7 +313,6 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                 fb = rf[b]
                 if fb == 0:
                     continue
-                touched += 1
                 d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
                 if d != 0:
                     ch, sat = _saturating_add(target, b, a, d, limit)
@@ -328,7 +328,6 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                 fb = cq[b]
                 if fb == 0:
                     continue
-                touched += 1
                 d, ctr = _scaled(fa * fb, pk, nk, big, mode, key, ctr, half, two_k)
                 if d != 0:
                     ch, sat = _saturating_add(target, a, b, d, limit)
@@ -337,7 +336,7 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally):
                     sats += sat
     rng[1] = np.uint64(ctr)
     tally[0] = written
-    tally[1] = changed
+    tally[1] = changed if count_changed else 0
     tally[2] = sats
     tally[3] = ctr - ctr0
     return touched
@@ -369,14 +368,15 @@ def _outer_update(m, acc, p, rng, rf, cq, tally, c, post, pre, lr, defer):
     # P is in units of 2^(lr_e + e_p + e_q); the target's unit is 2^(e_w - F) or 2^e_w
     if defer:
         k = p.exp - p.frac - (lr_e + e_p + e_q)
-        touched = _add_outer(acc, p.acc_max, rf, cq, rows, cols, k, top, mode, rng, tally)
+        touched = _add_outer(acc, p.acc_max, rf, cq, rows, cols, k, top, mode, rng, tally,
+                             False)
         c[ACC_WRITES] += tally[0]
         c[ACC_SATURATIONS] += tally[2]
         c[BYTES_READ] += tally[0] * acc.itemsize
         c[BYTES_WRITTEN] += tally[0] * acc.itemsize
     else:
         k = p.exp - (lr_e + e_p + e_q)
-        touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, rng, tally)
+        touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, rng, tally, True)
         c[WEIGHT_READS] += tally[0]
         c[WEIGHT_WRITES] += tally[0]
         c[CELLS_CHANGED] += tally[1]

@@ -90,9 +90,11 @@ from cml_edge.backends.quant import (
     SIGMOID_LUT,
     SIGMOID_OUT_BITS,
     SaturationError,
+    count_nonzero,
     exponent_for,
     int_matvec,
     int_rmatvec,
+    pow2,
     quantize_vector,
 )
 from cml_edge.errors import InputError
@@ -154,7 +156,7 @@ def quantize_at(x, n, e, out):
             out[i] = np.int64(np.rint(math.ldexp(x[i], -e)))
             l1 += abs(out[i])
         return l1
-    scale = math.ldexp(1.0, -e)
+    scale = pow2(-e)
     for i in range(n):
         out[i] = np.int64(np.rint(x[i] * scale))
         l1 += abs(out[i])
@@ -194,7 +196,7 @@ def _emit(p, sums, n, e, out):
     e_out = e - p.scale_exp - ACT_SHIFT
     wraps = 0
     big = not (-1000 < e_out < 1000)
-    scale = math.ldexp(1.0, e_out) if not big else 0.0
+    scale = pow2(e_out) if not big else 0.0
     for i in range(n):
         u, w = neuron_input(sums[i], p.exp)
         wraps += w
@@ -410,15 +412,13 @@ def end_epoch(state):
 def _term_line(line, mf, factors, k):
     """line[b] += the engine's term of (mf factors[b]) (:func:`engine_term`,
     :func:`accumulate`) where factors[b] != 0, the other cells kept: written without
-    branches so that it vectorises (issue 15). Returns (terms, product saturations,
-    accumulator saturations)."""
-    terms = 0
+    branches so that it vectorises (issue 15). Returns (product saturations, accumulator
+    saturations); the caller counts the terms (the nonzero factors) once."""
     psat = 0
     asat = 0
     big = k >= MAX_TERM_SHIFT
     kk = np.int64(0) if big else np.int64(k)
     for b in range(line.shape[0]):
-        live = factors[b] != 0
         v = (mf * factors[b]) >> np.int64(PRODUCT_SHIFT)
         if big:
             t = np.int64(ACC_MAX) if v > 0 else (np.int64(ACC_MIN) if v < 0 else np.int64(0))
@@ -431,32 +431,29 @@ def _term_line(line, mf, factors, k):
         r = old + t
         a = min(max(r, np.int64(ACC_MIN)), np.int64(ACC_MAX))
         line[b] = a if t != 0 else old
-        terms += live
         psat += ps
         asat += (t != 0) & (a != r)
-    return terms, psat, asat
+    return psat, asat
 
 
 @kernel
 def _add_terms(acc, m, X, cols, Y, rows, k, tally):
-    """acc += the product terms of the nonzero traces; tally[:3] = terms formed,
-    product saturations, accumulator saturations. Narrow matrices (a one-hot pre) are
-    walked column by column."""
-    terms = 0
+    """acc += the product terms of the nonzero traces; tally[:3] = terms formed (the
+    nonzero X times the nonzero Y), product saturations, accumulator saturations. Narrow
+    matrices (a one-hot pre) are walked column by column."""
+    terms = count_nonzero(X, cols) * count_nonzero(Y, rows)
     psat = 0
     asat = 0
     if cols <= NARROW:
         for j in range(cols):
             if X[j] != 0:
-                t, s1, s2 = _term_line(acc[:, j], m * X[j], Y, k)
-                terms += t
+                s1, s2 = _term_line(acc[:, j], m * X[j], Y, k)
                 psat += s1
                 asat += s2
     else:
         for i in range(rows):
             if Y[i] != 0:
-                t, s1, s2 = _term_line(acc[i], m * Y[i], X, k)
-                terms += t
+                s1, s2 = _term_line(acc[i], m * Y[i], X, k)
                 psat += s1
                 asat += s2
     tally[0] = terms
