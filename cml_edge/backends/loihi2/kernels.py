@@ -412,8 +412,10 @@ def end_epoch(state):
 def _term_line(line, mf, factors, k):
     """line[b] += the engine's term of (mf factors[b]) (:func:`engine_term`,
     :func:`accumulate`) where factors[b] != 0, the other cells kept: written without
-    branches so that it vectorises (issue 15). Returns (product saturations, accumulator
-    saturations); the caller counts the terms (the nonzero factors) once."""
+    branches so that it vectorises (issue 15). A zero term keeps the cell with no select,
+    as no cell is ever beyond the accumulator's range (validated on load, clipped at every
+    write; 0.58 -> 0.44 ns per cell in a throwaway loop). Returns (product saturations,
+    accumulator saturations); the caller counts the terms (the nonzero factors) once."""
     psat = 0
     asat = 0
     big = k >= MAX_TERM_SHIFT
@@ -427,12 +429,11 @@ def _term_line(line, mf, factors, k):
             u = v << kk
             t = min(max(u, np.int64(ACC_MIN)), np.int64(ACC_MAX))
             ps = t != u
-        old = np.int64(line[b])
-        r = old + t
+        r = np.int64(line[b]) + t
         a = min(max(r, np.int64(ACC_MIN)), np.int64(ACC_MAX))
-        line[b] = a if t != 0 else old
+        line[b] = a
         psat += ps
-        asat += (t != 0) & (a != r)
+        asat += a != r
     return psat, asat
 
 
