@@ -595,6 +595,18 @@ def test_bad_chip_options_are_one_line_exit_2(cli, tmp_path, flags, message):
     assert not (tmp_path / "r.json").exists()
 
 
+def test_terms_may_clip_is_a_sound_bound():
+    """Where _terms_may_clip says no term can leave the accumulator's range, none does:
+    every product of the rule's mantissa range with every trace, at every shift."""
+    f = np.arange(-kern.TRACE_MAX, kern.TRACE_MAX + 1)
+    for mf in range(-8 * kern.TRACE_MAX, 8 * kern.TRACE_MAX + 1, 3):
+        for k in range(kern.MAX_TERM_SHIFT + 2):
+            if not kern._terms_may_clip(mf, kern.TRACE_MAX, k):
+                t = ((mf * f) >> kern.PRODUCT_SHIFT) << k
+                assert t.min() >= kern.ACC_MIN and t.max() <= kern.ACC_MAX
+    assert not kern._terms_may_clip(5, 127, 0) and kern._terms_may_clip(1016, 127, 15)
+
+
 @pytest.mark.parametrize("k", [-0, 2, 7, 15, 16, 20])
 def test_term_line_is_the_engine_term_cell_by_cell(k):
     """The vectorised line of the learning engine (issue 15) against engine_term and
@@ -613,6 +625,8 @@ def test_term_line_is_the_engine_term_cell_by_cell(k):
             if t != 0:
                 want[b], s2 = kern.accumulate(want[b], t)
                 asat += s2
-        got = line.copy()
-        assert kern._term_line.py_func(got, mf, factors, k) == (psat, asat)
-        assert np.array_equal(got, want)
+        for clip in (True, False):  # without the clip only where no term can leave the range
+            if clip or not kern._terms_may_clip(mf, int(np.abs(factors).max()), k):
+                got = line.copy()
+                assert kern._term_line.py_func(got, mf, factors, k, clip) == (psat, asat)
+                assert np.array_equal(got, want)

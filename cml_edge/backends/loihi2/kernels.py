@@ -409,13 +409,16 @@ def end_epoch(state):
 
 
 @njit(cache=True, inline="always")
-def _term_line(line, mf, factors, k):
+def _term_line(line, mf, factors, k, clip):
     """line[b] += the engine's term of (mf factors[b]) (:func:`engine_term`,
     :func:`accumulate`) where factors[b] != 0, the other cells kept: written without
     branches so that it vectorises (issue 15). A zero term keeps the cell with no select,
     as no cell is ever beyond the accumulator's range (validated on load, clipped at every
-    write; 0.58 -> 0.44 ns per cell in a throwaway loop). Returns (product saturations,
-    accumulator saturations); the caller counts the terms (the nonzero factors) once."""
+    write; 0.58 -> 0.44 ns per cell in a throwaway loop). ``clip``: whether a term may
+    leave the accumulator's range (:func:`_terms_may_clip`); when none can, LLVM's copy
+    of the loop for that case has no clip of the term (0.44 -> 0.37 ns per cell). Returns
+    (product saturations, accumulator saturations); the caller counts the terms (the
+    nonzero factors) once."""
     psat = 0
     asat = 0
     big = k >= MAX_TERM_SHIFT
@@ -427,7 +430,7 @@ def _term_line(line, mf, factors, k):
             ps = v != 0
         else:
             u = v << kk
-            t = min(max(u, np.int64(ACC_MIN)), np.int64(ACC_MAX))
+            t = min(max(u, np.int64(ACC_MIN)), np.int64(ACC_MAX)) if clip else u
             ps = t != u
         r = np.int64(line[b]) + t
         a = min(max(r, np.int64(ACC_MIN)), np.int64(ACC_MAX))
@@ -435,6 +438,15 @@ def _term_line(line, mf, factors, k):
         psat += ps
         asat += a != r
     return psat, asat
+
+
+@njit(cache=True, inline="always")
+def _terms_may_clip(mf, top, k):
+    """Whether a term of (mf f) with |f| <= top, ((mf f) >> PRODUCT_SHIFT) << k, may leave
+    the accumulator's range: |floor(p / 2^s)| <= floor(|p| / 2^s) + 1."""
+    if k >= MAX_TERM_SHIFT:
+        return True
+    return ((((abs(mf) * top) >> np.int64(PRODUCT_SHIFT)) + 1) << np.int64(k)) > ACC_MAX
 
 
 @kernel
@@ -446,15 +458,19 @@ def _add_terms(acc, m, X, cols, Y, rows, k, tally):
     psat = 0
     asat = 0
     if cols <= NARROW:
+        top = _max_abs(Y, rows)
         for j in range(cols):
             if X[j] != 0:
-                s1, s2 = _term_line(acc[:, j], m * X[j], Y, k)
+                mf = m * X[j]
+                s1, s2 = _term_line(acc[:, j], mf, Y, k, _terms_may_clip(mf, top, k))
                 psat += s1
                 asat += s2
     else:
+        top = _max_abs(X, cols)
         for i in range(rows):
             if Y[i] != 0:
-                s1, s2 = _term_line(acc[i], m * Y[i], X, k)
+                mf = m * Y[i]
+                s1, s2 = _term_line(acc[i], mf, X, k, _terms_may_clip(mf, top, k))
                 psat += s1
                 asat += s2
     tally[0] = terms
