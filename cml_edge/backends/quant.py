@@ -118,6 +118,27 @@ def dequantize(m: np.ndarray, exp: int) -> np.ndarray:
 
 
 # compiled primitives -------------------------------------------------------------------
+def _bitcast(src: types.Type, dst: types.Type):
+    """A compiled function that reinterprets the bits of a ``src`` value as a ``dst`` (a
+    register move, no conversion)."""
+    def cast(typingctx, x):
+        if x != src:
+            return None
+
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(dst))
+        return dst(src), codegen
+    return intrinsic(cast)
+
+
+_bits = _bitcast(types.float64, types.uint64)  # a float64's IEEE 754 bit pattern
+_from_bits = _bitcast(types.uint64, types.float64)  # the float64 of a bit pattern
+
+
+_MAGNITUDE = np.uint64(0x7FFF_FFFF_FFFF_FFFF)  # every bit but the sign
+_INF_BITS = np.uint64(0x7FF0_0000_0000_0000)  # +inf; NaNs lie above it
+
+
 @njit(cache=True, inline="always")
 def pow2(n):
     """2.0^n, exactly: for -1022 <= n <= 1023 (a normal double) the bit pattern with
@@ -155,27 +176,6 @@ def exponent_for(max_abs, qmax):
 def round_half_even(v):
     """v rounded to the nearest integer, ties to even (as np.rint)."""
     return np.rint(v)
-
-
-def _bitcast(src: types.Type, dst: types.Type):
-    """A compiled function that reinterprets the bits of a ``src`` value as a ``dst`` (a
-    register move, no conversion)."""
-    def cast(typingctx, x):
-        if x != src:
-            return None
-
-        def codegen(context, builder, signature, args):
-            return builder.bitcast(args[0], context.get_value_type(dst))
-        return dst(src), codegen
-    return intrinsic(cast)
-
-
-_bits = _bitcast(types.float64, types.uint64)  # a float64's IEEE 754 bit pattern
-_from_bits = _bitcast(types.uint64, types.float64)  # the float64 of a bit pattern
-
-
-_MAGNITUDE = np.uint64(0x7FFF_FFFF_FFFF_FFFF)  # every bit but the sign
-_INF_BITS = np.uint64(0x7FF0_0000_0000_0000)  # +inf; NaNs lie above it
 
 
 @njit(cache=True, inline="always")
