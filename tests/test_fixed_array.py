@@ -27,6 +27,7 @@ from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import plan
 from cml_edge.grid.training import TrainConfig, train
+from cml_edge.rng import stream_key
 from cml_edge.storage import load_model, save_model
 
 FAST = settings(max_examples=40, deadline=None)
@@ -244,6 +245,30 @@ def test_stochastic_rounding_draws_independently_per_cell():
     se = np.sqrt(p * (1 - p) / moved.size)
     assert abs(moved.mean() - p) <= 4.5 * se
     assert arr.counters["rng_draws"] == 64 * 64
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.integers(-2 ** 17, 2 ** 17), min_size=1, max_size=48),
+       st.integers(-2 ** 17, 2 ** 17), st.integers(1, 53), st.integers(0, 2 ** 40),
+       st.booleans(), st.integers(0, 2 ** 31))
+def test_ranked_line_draws_as_the_ordered_line(factors, fa, pk, ctr, count_changed, seed):
+    """The two stochastic lines (issue 15) give the same cells, counts and next counter
+    for any factors, shift and counter: the ranked line's vectorised draws are the
+    ordered line's draws, and so is the line the count pass picks."""
+    f = np.array(factors, np.int64)
+    limit = 2 ** 20
+    start = np.random.default_rng(seed).integers(-limit, limit + 1, f.size).astype(np.int32)
+    key = np.uint64(stream_key(seed, 1))
+    fa, pk, ctr = np.int64(fa), np.int64(pk), np.int64(ctr)
+    lines = [start.copy() for _ in range(3)]
+    ordered = kern._ordered_line(lines[0], limit, fa, f, pk, 2.0 ** pk, key, ctr,
+                                 count_changed)
+    ranked = kern._ranked_line(lines[1], limit, fa, f, pk, key, ctr, count_changed,
+                               np.zeros(f.size, np.int64))
+    picked = kern._stochastic_line(lines[2], limit, fa, f, pk, 2.0 ** pk, key, ctr,
+                                   count_changed, np.zeros(f.size, np.int64))
+    assert ordered == ranked == picked
+    assert np.array_equal(lines[0], lines[1]) and np.array_equal(lines[0], lines[2])
 
 
 # reads --------------------------------------------------------------------------------------
