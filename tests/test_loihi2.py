@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from cml_edge import budget
@@ -20,7 +20,7 @@ from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2 import lava
 from cml_edge.backends.loihi2.array import Loihi2Array
 from cml_edge.backends.loihi2.config import payload_l1_max
-from cml_edge.backends.quant import SaturationError
+from cml_edge.backends.quant import SaturationError, exponent_for
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
@@ -593,6 +593,30 @@ def test_bad_chip_options_are_one_line_exit_2(cli, tmp_path, flags, message):
                          "--out", tmp_path / "r.json")
     assert code == 2 and message in err and err.count("\n") == 1 and out == ""
     assert not (tmp_path / "r.json").exists()
+
+
+def _l1_in_order(x, l1_max):
+    total = 0.0
+    for v in x:
+        total += abs(float(v))
+    return exponent_for(total, l1_max)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6, allow_subnormal=True), min_size=1, max_size=300),
+       st.sampled_from([1, 127, 1023, 4095, 2 ** 20 - 1]))
+def test_l1_exponent_is_that_of_the_sum_in_index_order(xs, l1_max):
+    """The eight-lane L1 exponent (issue 15) is the exponent of the index-order sum, for
+    any vector, and where the sum sits on an exponent's boundary to within a few ulps
+    (there the two sums can fall on either side of it, and the kernel must see that)."""
+    x = np.array(xs)
+    assume(np.abs(x).sum() > 0)
+    assert kern.l1_exponent(x, x.size, l1_max) == _l1_in_order(x, l1_max)
+    total = sum(abs(float(v)) for v in x)
+    for k in (-3, 0, 5):  # scale the sum onto the boundary l1_max 2^k, then nudge it
+        y = x * (l1_max * 2.0 ** k / total)
+        for z in (y, np.nextafter(y, np.inf), np.nextafter(y, 0.0)):
+            assert kern.l1_exponent(z, z.size, l1_max) == _l1_in_order(z, l1_max)
 
 
 def test_terms_may_clip_is_a_sound_bound():
