@@ -91,6 +91,8 @@ def test_cli_chips(cli, tmp_path):
     result = json.loads(out)
     assert result["chips"]["n"] == 2 and 0.0 <= result["yield"] <= 1.0
     assert result["chips"]["per_chip"][0]["success_rate"] == chip_task(0, SMALL)["success_rate"]
-    for bad in (["--chips", 0], ["--chips", 2, "--yield-target", 2], ["--workers", 2]):
+    for bad in (["--chips", 0], ["--chips", 2, "--yield-target", 2], ["--workers", 2],
+                ["--first-chip", 3], ["--yield-target", 0.9]):
         code, _, err = cli("emulate", "--walks", 1, "--steps", 10, *bad)
-        assert code == 2 and err.count("\n") == 1
+        assert code == 2 and err.count("\n") == 1, bad
+    assert "--yield-target needs --chips" in err  # the last case: not silently ignored

@@ -103,6 +103,6 @@ def test_the_cli(cli, tmp_path):
     data = json.loads((tmp_path / "s" / "results.json").read_text())
     assert data["chip_seeds"] == [3, 4] and data["parts"][0]["chips"]["n"] == 2
     for bad in (["--chips", 0], ["--chips", 2, "--yield-target", 1.5],
-                ["--chips", 2, "--first-chip", -1]):
+                ["--chips", 2, "--first-chip", -1], ["--first-chip", 3], ["--yield-target", 0.9]):
         code, out, err = cli("scenario", "paper", "--budget", "tiny", *bad)
         assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, bad

@@ -208,9 +208,9 @@ def add_chip_flags(p: argparse.ArgumentParser) -> argparse._ArgumentGroup:
     g.add_argument("--chips", type=positive_int, default=None, metavar="N",
                    help="run N independent chips (chip seeds FIRST..FIRST+N-1), each training "
                         "the same model seeds; adds chips and yield")
-    g.add_argument("--first-chip", type=nonneg_int, default=0, metavar="FIRST",
+    g.add_argument("--first-chip", type=nonneg_int, default=None, metavar="FIRST",
                    help="the first chip seed (0)")
-    g.add_argument("--yield-target", type=finite_float, default=DEFAULT_YIELD_TARGET,
+    g.add_argument("--yield-target", type=finite_float, default=None,
                    metavar="RATE", help="a chip yields if its success rate is at least this "
                    f"(0..1, default {DEFAULT_YIELD_TARGET})")
     return g
@@ -218,13 +218,19 @@ def add_chip_flags(p: argparse.ArgumentParser) -> argparse._ArgumentGroup:
 
 def chip_flags(args: argparse.Namespace) -> dict[str, Any] | None:
     """``{"n", "yield_target", "first"}`` given by :func:`add_chip_flags`'s flags (None
-    without ``--chips``); checks them now."""
-    from cml_edge.grid.chips import check_chips
+    without ``--chips``, where ``--first-chip`` or ``--yield-target`` is an error rather
+    than silently ignored); checks them now."""
+    from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips
 
     if args.chips is None:
+        for flag in ("first_chip", "yield_target"):
+            if getattr(args, flag) is not None:
+                raise InputError(f"--{flag.replace('_', '-')} needs --chips")
         return None
-    check_chips(args.chips, args.yield_target, args.first_chip)
-    return {"n": args.chips, "yield_target": args.yield_target, "first": args.first_chip}
+    first = 0 if args.first_chip is None else args.first_chip
+    target = DEFAULT_YIELD_TARGET if args.yield_target is None else args.yield_target
+    check_chips(args.chips, target, first)
+    return {"n": args.chips, "yield_target": target, "first": first}
 
 
 def add_chips(p: argparse.ArgumentParser) -> None:

@@ -72,14 +72,14 @@ def _budget(args: argparse.Namespace) -> str:
 
 
 def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
-    chip_flags(args)  # checked now, before any task
+    chips = chip_flags(args)  # checked now, before any task
+    on_chips = {} if chips is None else {"chips": chips["n"], "first_chip": chips["first"],
+                                         "yield_target": chips["yield_target"]}
     if args.out is not None:
         writable_folder(args.out, "--out")
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
-                          Progress(f"scenario {args.name}"), command=command_line(),
-                          chips=args.chips, first_chip=args.first_chip,
-                          yield_target=args.yield_target)
+                          Progress(f"scenario {args.name}"), command=command_line(), **on_chips)
     if not args.json:
         _print_table(result)
     return result
