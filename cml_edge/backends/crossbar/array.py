@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cml_edge.backends.base import SynapticArray
+from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.crossbar import kernels as kern
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
@@ -42,7 +42,8 @@ from cml_edge.rng import stream_key
 class CrossbarState(NamedTuple):
     Gp: np.ndarray  # (rows, cols) float64: G+ (uS), column-major
     Gm: np.ndarray  # (rows, cols) float64: G- (uS), same layout
-    acc: np.ndarray  # (rows, cols) float64: digital update accumulator (weight units)
+    acc: np.ndarray  # (rows, cols) float64: digital update accumulator (weight units), laid
+    # out by shape (column-major if tall, row-major if wide: the update runs along it)
     step: np.ndarray  # (4, rows, cols) float64: pulse-step scales G+ up/down, G- up/down
     nu: np.ndarray  # (2, rows, cols) float64: drift exponents of G+, G-
     age: np.ndarray  # (2, rows, cols) float64: seconds since each device's last write
@@ -155,7 +156,7 @@ class CrossbarArray(SynapticArray):
         options = saved_options(options)
         preset = options.pop("preset", cls.DEFAULT_PRESET)
         state = state._replace(Gp=_laid_out(state.Gp), Gm=_laid_out(state.Gm),
-                               acc=_laid_out(state.acc))
+                               acc=laid_out(np.asarray(state.acc, dtype=np.float64)))
         n = max(state.Gp.shape)
         for f, size in (("xbuf", n), ("ybuf", n), ("idx", n), ("bits", sum(state.Gp.shape)),
                         ("rng", 2), ("alpha", 1), ("elapsed", 1)):
@@ -233,7 +234,7 @@ def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
     order = "F"
     return CrossbarState(
         Gp=np.zeros(shape, order=order), Gm=np.zeros(shape, order=order),
-        acc=np.zeros(shape, order=order), step=np.ones((4, rows, cols)),
+        acc=laid_out(np.zeros(shape)), step=np.ones((4, rows, cols)),
         nu=np.zeros((2, rows, cols)), age=np.zeros((2, rows, cols)),
         stuck=np.zeros((2, rows, cols), np.int8), params=params, alpha=np.ones(1),
         elapsed=np.zeros(1),

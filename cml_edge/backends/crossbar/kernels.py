@@ -68,7 +68,9 @@ Randomness: one counter-based stream per array, ``uniform(rng[0], c)`` from
 :mod:`cml_edge.rng` at the counter c = ``rng[1]``, advanced by one per uniform
 drawn. Normal deviates come from those uniforms by the Marsaglia-Tsang ziggurat (256
 layers; exact, and ~8x cheaper than the Box-Muller ``rng.normal`` that a read would
-otherwise spend most of its time in).
+otherwise spend most of its time in). A long read computes the ziggurat's fast path for
+its words in one vectorised pass and takes the slow path only at the rejected words
+(:func:`_add_noise`): the same normals at the same counters as drawing them one by one.
 """
 
 from __future__ import annotations
@@ -77,6 +79,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
 from cml_edge.backends.crossbar.config import (
@@ -91,6 +94,7 @@ from cml_edge.backends.crossbar.config import (
 from cml_edge.backends.quant import max_abs
 from cml_edge.kernel import kernel
 from cml_edge.rng import uniform, unit, word
+from cml_edge.simd import band_sums
 
 # choice codes of the parameter record (the index of the value in the config's choices)
 UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
@@ -113,6 +117,21 @@ N_COUNTERS = 18
 OK, STUCK_LOW, STUCK_HIGH = 0, 1, 2
 
 _ONE = np.uint64(1)
+
+BAND_ROWS = 16
+"""A forward read of at most this many rows sums them as vector lanes (:func:`_mac`); a
+taller one (W_q, W_v) as one axpy per nonzero column, which skips the zero inputs of a
+one-hot read once for all rows."""
+SPARSE_READ = 8
+"""A forward read with at most 1 in this many inputs nonzero (the grid's one-hot and
+two-hot observations) visits their columns from the DAC's masks instead of testing every
+input (:func:`_mac`)."""
+BLOCK_OUTPUTS = 64
+"""A read with at least this many outputs takes its normals' fast path in one vectorised
+pass (:func:`_add_noise`); a shorter one draws in order."""
+BLOCK_PAD = 16
+"""Candidates beyond the outputs, for the words the slow paths consume (~4.6 in a read of
+256 outputs); past them a read draws in order."""
 
 
 # ziggurat tables (Marsaglia & Tsang 2000, 256 layers) ----------------------------------
@@ -201,32 +220,34 @@ def _pulse_train(p, bl, key, ctr):
 
 
 @kernel
-def _convert_inputs(x, xs, n_in, dac, need_sq):
-    """xs = DAC(x / max|x|); returns (max|x|, nonzero inputs, sum xs^2 if ``need_sq``)."""
+def _convert_inputs(x, xs, n_in, dac, need_sq, nz):
+    """xs = DAC(x / max|x|) (:func:`_quantise_inputs`); returns (max|x|, nonzero inputs,
+    sum xs^2 if ``need_sq``)."""
     xmax = max_abs(x, n_in)[0]
     if not xmax > 0.0:
         return xmax, 0, 0.0
-    nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax, need_sq)
+    nnz, sq = _quantise_inputs(x, xs, n_in, dac, 1.0 / xmax, need_sq, nz)
     return xmax, nnz, sq
 
 
 @kernel
-def _quantise_inputs(x, xs, n_in, dac, inv, need_sq):
-    """xs = DAC(x inv); returns (nonzero inputs, sum xs^2 in index order if ``need_sq``,
-    else 0: only the per-device read noise needs it, and it is a sequential sum)."""
+def _quantise_inputs(x, xs, n_in, dac, inv, need_sq, nz):
+    """xs = DAC(x inv), and bit j % 64 of nz[j // 64] set where xs[j] != 0 (the inputs
+    that drive the array, which :func:`_mac` visits); returns (nonzero inputs, sum xs^2 in
+    index order if ``need_sq``, else 0: only the per-device read noise needs it, and it is
+    a sequential sum)."""
     nnz = 0
-    if dac > 0.0:
-        inv_dac = 1.0 / dac
-        for j in range(n_in):
+    inv_dac = 1.0 / dac if dac > 0.0 else 0.0
+    for b in range((n_in + 63) >> 6):
+        mk = np.uint64(0)
+        for u in range(min(n_in - (b << 6), 64)):
+            j = (b << 6) + u
             v = x[j] * inv
-            q = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac
+            q = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac if dac > 0.0 else v
             xs[j] = q
             nnz += q != 0.0
-    else:
-        for j in range(n_in):
-            q = x[j] * inv
-            xs[j] = q
-            nnz += q != 0.0
+            mk |= np.uint64(q != 0.0) << np.uint64(u)
+        nz[b] = np.int64(mk)
     sq = 0.0
     if need_sq:
         for j in range(n_in):
@@ -235,15 +256,45 @@ def _quantise_inputs(x, xs, n_in, dac, inv, need_sq):
 
 
 @kernel
-def _mac(Gp, Gm, xs, buf, transposed):
-    """buf = (G+ - G-) xs, or (G+ - G-)^T xs: the analog sums (micro-siemens)."""
+def _mac(Gp, Gm, xs, buf, transposed, nz, nnz):
+    """buf = (G+ - G-) xs, or (G+ - G-)^T xs: the analog sums (micro-siemens).
+
+    W x sums each output over the columns of the nonzero inputs, in order. With at most
+    :data:`BAND_ROWS` rows (W_k's 8), the rows are summed as vector lanes
+    (:func:`cml_edge.simd.band_sums`: the same operations in the same order); otherwise as
+    one axpy per driven column, found from the DAC's masks ``nz`` when there are few
+    (``nnz``, :data:`SPARSE_READ`)."""
     rows, cols = Gp.shape
+    if not transposed and rows <= BAND_ROWS and Gp.strides[0] == 8 and Gm.strides[0] == 8:
+        i0 = 0
+        while i0 + 8 <= rows:
+            band_sums(Gp, Gm, xs, buf, i0, 8)
+            i0 += 8
+        if i0 + 4 <= rows:
+            band_sums(Gp, Gm, xs, buf, i0, 4)
+            i0 += 4
+        if i0 + 2 <= rows:
+            band_sums(Gp, Gm, xs, buf, i0, 2)
+            i0 += 2
+        if i0 < rows:
+            band_sums(Gp, Gm, xs, buf, i0, 1)
+        return
     if not transposed:  # W x = sum_j x_j (G+ - G-)[:, j], along contiguous columns
         for i in range(rows):
             buf[i] = 0.0
-        for j in range(cols):
-            v = xs[j]
-            if v != 0.0:
+        if nnz * SPARSE_READ > cols:  # most inputs drive the array
+            for j in range(cols):
+                v = xs[j]
+                if v != 0.0:
+                    for i in range(rows):
+                        buf[i] += (Gp[i, j] - Gm[i, j]) * v
+            return
+        for b in range((cols + 63) >> 6):  # a few inputs (one-hot): their columns in order
+            m = np.uint64(nz[b])
+            while m != 0:
+                j = (b << 6) + np.int64(trailing_zeros(m))
+                m &= m - _ONE
+                v = xs[j]
                 for i in range(rows):
                     buf[i] += (Gp[i, j] - Gm[i, j]) * v
         return
@@ -267,17 +318,95 @@ def _mac(Gp, Gm, xs, buf, transposed):
 
 
 @kernel
-def _convert_outputs(buf, out, n_out, g_min, g_max, adc, bound, sigma, scale, rng):
-    """Normalise, add the read noise, ADC (step ``adc``, 0 = ideal; clipping at
-    +-``bound``), rescale; returns the saturated outputs."""
+def _fast_candidates(key, ctr, zc, masks, m):
+    """The fast path of :func:`normal_at` for the words at counters ctr .. ctr + m - 1, in
+    one pass that vectorises: zc[t] is the normal of the word at ctr + t where the fast path
+    accepts it, and bit t % 64 of masks[t // 64] is set where it does not (~1.5 % of words:
+    the slow path's). ``masks`` is int64 scratch holding the bits of uint64 words."""
+    for b in range((m + 63) >> 6):
+        mk = np.uint64(0)
+        for u in range(min(m - (b << 6), 64)):
+            t = (b << 6) + u
+            w = word(key, ctr + np.uint64(t))
+            i = np.int64(w & np.uint64(255))
+            x = unit(w) * ZIG_X[i]
+            mk |= np.uint64(not x < ZIG_X[i + 1]) << np.uint64(u)
+            zc[t] = x - 2.0 * np.float64((w >> np.uint64(8)) & _ONE) * x  # x or -x, exact
+        masks[b] = np.int64(mk)
+
+
+@kernel
+def _next_rejected(masks, t, limit):
+    """The first word at or after t that the fast path rejects, or ``limit`` if none is
+    below it."""
+    while t < limit:
+        b = t >> 6
+        rest = np.uint64(masks[b]) >> np.uint64(t & 63)
+        if rest != 0:
+            return min(t + np.int64(trailing_zeros(rest)), limit)
+        t = (b + 1) << 6
+    return limit
+
+
+@kernel
+def _add_noise(buf, var, n_out, inv_g, sigma, wn, rng, zc, masks):
+    """buf[o] = buf[o] inv_g + s_o z_o for every output o, z_o the o-th normal of
+    :func:`normal_at` from the stream's counter on, s_o = sigma, or sqrt(sigma^2 +
+    wn^2 var[o]) when wn > 0 (PCM_READ); advances the counter past the draws.
+
+    The same draws at the same counters as calling :func:`normal_at` output after output
+    (issue 15), but faster for a long read: :func:`_fast_candidates` takes the fast path
+    of up to ``zc.shape[0]`` words in one vectorised pass; the outputs then take the
+    candidates run by run up to each rejected word, whose slow path (and the words it
+    consumes) continues the draws at the counter it leaves, and the rest of the read, if
+    the rejections carry it past the candidates, draws in order. A read of fewer than
+    :data:`BLOCK_OUTPUTS` outputs draws in order (the pass would cost more than it saves).
+    """
+    key = rng[0]
+    start = rng[1]
+    per_output = wn > 0.0
+    b2 = sigma * sigma
+    w2 = wn * wn
+    o = 0
+    t = 0
+    m = 0
+    if n_out >= BLOCK_OUTPUTS:
+        m = min(n_out + BLOCK_PAD, zc.shape[0])
+        _fast_candidates(key, start, zc, masks, m)
+    while o < n_out:
+        if t < m:  # a run of accepted candidates (unsigned indices: the loop vectorises)
+            e = _next_rejected(masks, t, min(t + n_out - o, m))
+            uo = np.uint64(o)
+            ut = np.uint64(t)
+            for k in range(np.uint64(e - t)):
+                s = math.sqrt(b2 + w2 * var[uo + k]) if per_output else sigma
+                buf[uo + k] = buf[uo + k] * inv_g + s * zc[ut + k]
+            o += e - t
+            t = e
+            if o == n_out or t == m:
+                continue
+            w = word(key, start + np.uint64(t))  # the rejected word: its slow path
+            i = np.int64(w & np.uint64(255))
+            z, c = _normal_slow(key, start + np.uint64(t) + _ONE, i, unit(w) * ZIG_X[i],
+                                (w >> np.uint64(8)) & _ONE != 0)
+        else:  # in order
+            z, c = normal_at(key, start + np.uint64(t))
+        s = math.sqrt(b2 + w2 * var[o]) if per_output else sigma
+        buf[o] = buf[o] * inv_g + s * z
+        o += 1
+        t = np.int64(c - start)
+    rng[1] = start + np.uint64(t)
+
+
+@kernel
+def _convert_outputs(buf, var, out, n_out, g_min, g_max, adc, bound, sigma, wn, scale, rng,
+                     zc, masks):
+    """Normalise, add the read noise (:func:`_add_noise`; none when sigma and wn are 0),
+    ADC (step ``adc``, 0 = ideal; clipping at +-``bound``), rescale; returns the saturated
+    outputs."""
     inv_g = 1.0 / (g_max - g_min)
-    if sigma > 0.0:
-        key = rng[0]
-        ctr = rng[1]
-        for o in range(n_out):
-            z, ctr = normal_at(key, ctr)
-            buf[o] = buf[o] * inv_g + sigma * z
-        rng[1] = ctr
+    if sigma > 0.0 or wn > 0.0:
+        _add_noise(buf, var, n_out, inv_g, sigma, wn, rng, zc, masks)
     else:
         for o in range(n_out):
             buf[o] = buf[o] * inv_g
@@ -318,35 +447,8 @@ def _abs_w_x2(Gp, Gm, xs, buf, transposed, inv_g):
 
 
 @kernel
-def _convert_outputs_var(buf, var, out, n_out, g_min, g_max, adc, bound, base, wn, scale,
-                         rng):
-    """:func:`_convert_outputs` with a per-output noise variance base^2 + wn^2 var_o."""
-    inv_g = 1.0 / (g_max - g_min)
-    key = rng[0]
-    ctr = rng[1]
-    b2 = base * base
-    w2 = wn * wn
-    for o in range(n_out):
-        z, ctr = normal_at(key, ctr)
-        buf[o] = buf[o] * inv_g + math.sqrt(b2 + w2 * var[o]) * z
-    rng[1] = ctr
-    saturated = 0
-    if adc > 0.0:
-        inv_adc = 1.0 / adc
-        unit = adc * scale
-        for o in range(n_out):
-            v = buf[o]
-            saturated += abs(v) > bound
-            v = min(max(v, -bound), bound)
-            out[o] = math.copysign(math.floor(abs(v) * inv_adc + 0.5), v) * unit
-    else:
-        for o in range(n_out):
-            out[o] = buf[o] * scale
-    return saturated
-
-
-@kernel
-def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed, kind):
+def _read(Gp, Gm, xbuf, ybuf, vbuf, bits, rng, alpha, counters, P, x, out, transposed,
+          kind):
     """out = W x (or W^T x) as the array reads it (module docstring, steps 1-5, and the
     bound management's re-reads), counted as a read of ``kind`` (a counter index; -1: a
     calibration read, counted by its caller). The state's arrays come as arguments (issue
@@ -359,7 +461,7 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed,
     n_out = cols if transposed else rows
     rn = P.read_noise
     on = P.out_noise
-    xmax, nnz, sq = _convert_inputs(x, xbuf, n_in, P.dac_step, rn != 0.0)
+    xmax, nnz, sq = _convert_inputs(x, xbuf, n_in, P.dac_step, rn != 0.0, bits)
     if not xmax > 0.0:  # no input drives the array: nothing is read
         for i in range(n_out):
             out[i] = 0.0 if xmax == 0.0 else math.nan
@@ -369,20 +471,18 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed,
     while True:
         if passes > 0:  # a re-read: the input halved again (aihwkit ITERATIVE)
             div = div * 2.0
-            nnz, sq = _quantise_inputs(x, xbuf, n_in, P.dac_step, 1.0 / div, rn != 0.0)
+            nnz, sq = _quantise_inputs(x, xbuf, n_in, P.dac_step, 1.0 / div, rn != 0.0, bits)
             counters[BM_REREADS] += 1
-        _mac(Gp, Gm, xbuf, ybuf, transposed)
+        _mac(Gp, Gm, xbuf, ybuf, transposed, bits, nnz)
         sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
         start = rng[1]
         scale = P.w_max * div * alpha[0]
         if P.read_noise_pcm > 0.0:
             _abs_w_x2(Gp, Gm, xbuf, vbuf, transposed, 1.0 / (P.g_max - P.g_min))
-            saturated = _convert_outputs_var(ybuf, vbuf, out, n_out, P.g_min, P.g_max,
-                                             P.adc_step, P.adc_bound, sigma, P.read_noise_pcm,
-                                             scale, rng)
-        else:
-            saturated = _convert_outputs(ybuf, out, n_out, P.g_min, P.g_max, P.adc_step,
-                                         P.adc_bound, sigma, scale, rng)
+        # (xbuf and bits, free once the sums are formed, hold the noise's candidates)
+        saturated = _convert_outputs(ybuf, vbuf, out, n_out, P.g_min, P.g_max, P.adc_step,
+                                     P.adc_bound, sigma, P.read_noise_pcm, scale, rng, xbuf,
+                                     bits)
         counters[RNG_DRAWS] += np.int64(rng[1] - start)
         counters[ANALOG_MACS] += nnz * n_out
         counters[DAC_CONVERSIONS] += nnz
@@ -396,8 +496,8 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, rng, alpha, counters, P, x, out, transposed,
 @njit(cache=True, inline="always")
 def read(state, x, out, transposed, kind):
     """:func:`_read` on the state's arrays, in one statement."""
-    _read(state.Gp, state.Gm, state.xbuf, state.ybuf, state.vbuf, state.rng, state.alpha,
-          state.counters, state.params, x, out, transposed, kind)
+    _read(state.Gp, state.Gm, state.xbuf, state.ybuf, state.vbuf, state.bits, state.rng,
+          state.alpha, state.counters, state.params, x, out, transposed, kind)
 
 
 @njit(cache=True, inline="always")
@@ -787,13 +887,23 @@ def xbar_outer_update(state, post, pre, lr, defer):
         acc = state.acc
         rows, cols = acc.shape
         touched = 0
-        for j in range(cols):  # column-major: along columns, skipping zero pre factors
-            q = pre[j]
-            if q == 0.0:
-                continue
-            touched += rows
+        if rows >= cols:  # column-major (tall): along columns, skipping zero pre factors
+            for j in range(cols):
+                q = pre[j]
+                if q == 0.0:
+                    continue
+                touched += rows
+                for i in range(rows):
+                    acc[i, j] += (lr * post[i]) * q
+        else:  # row-major (wide): along rows, the same cells
+            for j in range(cols):
+                touched += rows * (pre[j] != 0.0)
             for i in range(rows):
-                acc[i, j] += (lr * post[i]) * q
+                p = lr * post[i]
+                for j in range(cols):
+                    q = pre[j]
+                    if q != 0.0:
+                        acc[i, j] += p * q
         c[ACC_WRITES] += touched
     elif state.params.update == UPDATE_PULSED:
         _pulsed_update(state, post, pre, lr)
