@@ -68,10 +68,53 @@ def band_sums(typingctx, Gp, Gm, x, out, i0, lanes):
     return types.none(Gp, Gm, x, out, i0, lanes), codegen
 
 
+@intrinsic
+def lane_sums(typingctx, Gp, Gm, y, o, rows):
+    """The eight partial sums of column o of (Gp - Gm) against y over its first ``rows``
+    rows (a multiple of 8): lane l is sum_c (Gp[8c + l, o] - Gm[8c + l, o]) y[8c + l] in
+    order of c from 0.0, the eight interleaved sums of a transposed read (the same
+    operations and order as eight scalar accumulators). Returned as a tuple of 8 floats;
+    the caller checks that the columns are contiguous (``strides[0]`` 8 bytes) and adds
+    the remaining rows and the lanes in its own order."""
+    if not all(isinstance(a, types.Array) and a.dtype == types.float64 and a.ndim == 2
+               for a in (Gp, Gm)):
+        return None
+    if not (isinstance(y, types.Array) and y.dtype == types.float64 and y.ndim == 1
+            and y.layout == "C"):
+        return None
+    vec = ir.VectorType(_F64, 8)
+    result = types.UniTuple(types.float64, 8)
+
+    def codegen(context, builder, signature, args):
+        gp, gm, ya = (context.make_array(t)(context, builder, a)
+                      for t, a in zip(signature.args[:3], args[:3]))
+        col, n = args[3], args[4]
+        byte_ptr = ir.IntType(8).as_pointer()
+        top_p = builder.gep(builder.bitcast(gp.data, byte_ptr),
+                            [builder.mul(col, builder.extract_value(gp.strides, 1))])
+        top_m = builder.gep(builder.bitcast(gm.data, byte_ptr),
+                            [builder.mul(col, builder.extract_value(gm.strides, 1))])
+        top_y = builder.bitcast(ya.data, byte_ptr)
+        acc = cgutils.alloca_once_value(builder, ir.Constant(vec, [0.0] * 8))
+        eight = ir.Constant(n.type, 8)
+        with cgutils.for_range(builder, builder.udiv(n, eight)) as loop:
+            chunk = builder.mul(loop.index, ir.Constant(n.type, 64))  # bytes
+            diff = builder.fsub(_lanes_at(builder, top_p, chunk, None, vec),
+                                _lanes_at(builder, top_m, chunk, None, vec))
+            term = builder.fmul(diff, _lanes_at(builder, top_y, chunk, None, vec))
+            builder.store(builder.fadd(builder.load(acc), term), acc)
+        total = builder.load(acc)
+        lanes = [builder.extract_element(total, ir.Constant(_I32, k)) for k in range(8)]
+        return context.make_tuple(builder, result, lanes)
+
+    return result(Gp, Gm, y, o, rows), codegen
+
+
 def _lanes_at(builder, top, j, step, vec):
-    """The vector at byte offset j * step from ``top`` (column j's rows from the first)."""
-    return builder.load(builder.bitcast(builder.gep(top, [builder.mul(j, step)]),
-                                        vec.as_pointer()), align=8)
+    """The vector at byte offset j * step (j if ``step`` is None) from ``top``."""
+    offset = j if step is None else builder.mul(j, step)
+    return builder.load(builder.bitcast(builder.gep(top, [offset]), vec.as_pointer()),
+                        align=8)
 
 
 def _splat(builder, value, vec):

@@ -1,7 +1,8 @@
 """The crossbar's fast read paths (issue 15) against their plain definitions, bit for bit.
 
-A read's analog sums (:func:`_mac`: vector lanes for a short matrix, the DAC's masks for a
-sparse input) must be the column-order sums of the plain loop, and its noise
+A read's analog sums (:func:`_mac`: vector lanes for a short matrix and for the eight
+partial sums of a transposed read, the DAC's masks for a sparse input) must be the sums of
+the plain loops, and its noise
 (:func:`_add_noise`: a vectorised pass of candidates) the normals :func:`normal_at` gives
 output after output, at the same counters.
 """
@@ -38,11 +39,12 @@ def column_sums(Gp, Gm, x):
 
 @settings(max_examples=60, deadline=None)
 @given(rows=st.integers(1, 40), cols=st.integers(1, 200), density=st.sampled_from(
-    [0.0, 0.005, 0.05, 0.5, 1.0]), nan=st.booleans(), seed=st.integers(0, 2**31))
-def test_forward_read_sums_in_column_order(rows, cols, density, nan, seed):
+    [0.0, 0.005, 0.05, 0.5, 1.0]), nan=st.booleans(), order=st.sampled_from("FC"),
+       seed=st.integers(0, 2**31))
+def test_forward_read_sums_in_column_order(rows, cols, density, nan, order, seed):
     rng = np.random.default_rng(seed)
-    Gp = np.asfortranarray(rng.uniform(0, 25, (rows, cols)))
-    Gm = np.asfortranarray(rng.uniform(0, 25, (rows, cols)))
+    Gp = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
+    Gm = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
     x = rng.normal(size=cols) * (rng.random(cols) < density)
     if nan:
         x[rng.integers(cols)] = math.nan
@@ -55,6 +57,38 @@ def test_forward_read_sums_in_column_order(rows, cols, density, nan, seed):
     out = np.zeros(max(rows, cols))
     _mac(Gp, Gm, xs, out, False, nz, nnz)
     np.testing.assert_array_equal(out[:rows], column_sums(Gp, Gm, xs))
+
+
+def lane_sums(Gp, Gm, y):
+    """W^T y as the plain loop sums it: eight interleaved partial sums per output, the
+    rows left over into the first, then ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))."""
+    rows, cols = Gp.shape
+    out = np.zeros(cols)
+    for o in range(cols):
+        s = [0.0] * 8
+        k = 0
+        while k + 8 <= rows:
+            for lane in range(8):
+                s[lane] += (Gp[k + lane, o] - Gm[k + lane, o]) * y[k + lane]
+            k += 8
+        while k < rows:
+            s[0] += (Gp[k, o] - Gm[k, o]) * y[k]
+            k += 1
+        out[o] = ((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))
+    return out
+
+
+@settings(max_examples=40, deadline=None)
+@given(rows=st.integers(1, 100), cols=st.integers(1, 12), order=st.sampled_from("FC"),
+       seed=st.integers(0, 2**31))
+def test_transposed_read_sums_in_eight_lanes(rows, cols, order, seed):
+    rng = np.random.default_rng(seed)
+    Gp = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
+    Gm = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
+    y = rng.normal(size=rows) * (rng.random(rows) < 0.8)
+    out = np.zeros(max(rows, cols))
+    _mac(Gp, Gm, y, out, True, np.zeros(rows + cols, np.int64), 0)
+    np.testing.assert_array_equal(out[:cols], lane_sums(Gp, Gm, y))
 
 
 @settings(max_examples=60, deadline=None)

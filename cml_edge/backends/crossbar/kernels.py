@@ -94,7 +94,7 @@ from cml_edge.backends.crossbar.config import (
 from cml_edge.backends.quant import max_abs
 from cml_edge.kernel import kernel
 from cml_edge.rng import uniform, unit, word
-from cml_edge.simd import band_sums
+from cml_edge.simd import band_sums, lane_sums
 
 # choice codes of the parameter record (the index of the value in the config's choices)
 UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
@@ -263,7 +263,8 @@ def _mac(Gp, Gm, xs, buf, transposed, nz, nnz):
     :data:`BAND_ROWS` rows (W_k's 8), the rows are summed as vector lanes
     (:func:`cml_edge.simd.band_sums`: the same operations in the same order); otherwise as
     one axpy per driven column, found from the DAC's masks ``nz`` when there are few
-    (``nnz``, :data:`SPARSE_READ`)."""
+    (``nnz``, :data:`SPARSE_READ`). W^T y sums each output in eight interleaved partial
+    sums (:func:`cml_edge.simd.lane_sums`), then the rows left over, then the eight."""
     rows, cols = Gp.shape
     if not transposed and rows <= BAND_ROWS and Gp.strides[0] == 8 and Gm.strides[0] == 8:
         i0 = 0
@@ -298,9 +299,13 @@ def _mac(Gp, Gm, xs, buf, transposed, nz, nnz):
                 for i in range(rows):
                     buf[i] += (Gp[i, j] - Gm[i, j]) * v
         return
+    lanes = Gp.strides[0] == 8 and Gm.strides[0] == 8
     for o in range(cols):  # W^T y: one reduction per column, eight partial sums
         s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
         k = 0
+        if lanes:  # the eight sums as vector lanes (cml_edge.simd.lane_sums), same order
+            k = rows - rows % 8
+            s0, s1, s2, s3, s4, s5, s6, s7 = lane_sums(Gp, Gm, xs, o, k)
         while k + 8 <= rows:
             s0 += (Gp[k, o] - Gm[k, o]) * xs[k]
             s1 += (Gp[k + 1, o] - Gm[k + 1, o]) * xs[k + 1]
