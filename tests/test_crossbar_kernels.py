@@ -40,8 +40,8 @@ def column_sums(Gp, Gm, x):
 @settings(max_examples=60, deadline=None)
 @given(rows=st.integers(1, 40), cols=st.integers(1, 200), density=st.sampled_from(
     [0.0, 0.005, 0.05, 0.5, 1.0]), nan=st.booleans(), order=st.sampled_from("FC"),
-       seed=st.integers(0, 2**31))
-def test_forward_read_sums_in_column_order(rows, cols, density, nan, order, seed):
+       dac=st.sampled_from([0.0, 1 / 127]), seed=st.integers(0, 2**31))
+def test_forward_read_sums_in_column_order(rows, cols, density, nan, order, dac, seed):
     rng = np.random.default_rng(seed)
     Gp = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
     Gm = np.array(rng.uniform(0, 25, (rows, cols)), order=order)
@@ -50,8 +50,15 @@ def test_forward_read_sums_in_column_order(rows, cols, density, nan, order, seed
         x[rng.integers(cols)] = math.nan
     xs = np.zeros(cols)
     nz = np.zeros(cols + rows, np.int64)
-    nnz, _ = _quantise_inputs(x, xs, cols, 0.0, 1.0, False, nz)
+    nnz, sq = _quantise_inputs(x, xs, cols, dac, 0.5, True, nz)
+    if dac:
+        q = np.copysign(np.floor(np.abs(x * 0.5) * (1.0 / dac) + 0.5), x) * dac
+        assert np.array_equal(xs, q, equal_nan=True) or not np.isfinite(x).all()
     assert nnz == np.count_nonzero(xs)
+    total = 0.0
+    for v in xs:  # the sum of squares in index order, zeros included
+        total += v * v
+    assert sq == total or (math.isnan(sq) and math.isnan(total))
     bits = [(int(nz[j // 64]) >> (j % 64)) & 1 for j in range(cols)]
     assert bits == [int(v != 0.0) for v in xs]  # NaN drives its line
     out = np.zeros(max(rows, cols))

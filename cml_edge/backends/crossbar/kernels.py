@@ -194,11 +194,13 @@ def normal_at(key, ctr):
 
 @kernel
 def _popcount(v):
-    n = 0
-    while v:
-        v &= v - 1
-        n += 1
-    return n
+    """The set bits of a 64-bit word (int64 or uint64; the SWAR sum, which LLVM compiles
+    to one instruction)."""
+    v = np.uint64(v)
+    v = v - ((v >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    v = (v & np.uint64(0x3333333333333333)) + ((v >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    v = (v + (v >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return np.int64((v * np.uint64(0x0101010101010101)) >> np.uint64(56))
 
 
 # reads ---------------------------------------------------------------------------------
@@ -234,24 +236,32 @@ def _convert_inputs(x, xs, n_in, dac, need_sq, nz):
 def _quantise_inputs(x, xs, n_in, dac, inv, need_sq, nz):
     """xs = DAC(x inv), and bit j % 64 of nz[j // 64] set where xs[j] != 0 (the inputs
     that drive the array, which :func:`_mac` visits); returns (nonzero inputs, sum xs^2 in
-    index order if ``need_sq``, else 0: only the per-device read noise needs it, and it is
-    a sequential sum)."""
+    index order if ``need_sq``, else 0: only the per-device read noise needs it). Each pass
+    vectorises but the sum, which adds only the nonzero inputs' squares, in index order
+    (a zero adds +0.0 to a sum that is never -0.0: the same bits as adding every square)."""
+    if dac > 0.0:
+        inv_dac = 1.0 / dac
+        for j in range(n_in):
+            v = x[j] * inv
+            xs[j] = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac
+    else:
+        for j in range(n_in):
+            xs[j] = x[j] * inv
     nnz = 0
-    inv_dac = 1.0 / dac if dac > 0.0 else 0.0
     for b in range((n_in + 63) >> 6):
         mk = np.uint64(0)
         for u in range(min(n_in - (b << 6), 64)):
-            j = (b << 6) + u
-            v = x[j] * inv
-            q = math.copysign(math.floor(abs(v) * inv_dac + 0.5), v) * dac if dac > 0.0 else v
-            xs[j] = q
-            nnz += q != 0.0
-            mk |= np.uint64(q != 0.0) << np.uint64(u)
+            mk |= np.uint64(xs[(b << 6) + u] != 0.0) << np.uint64(u)
         nz[b] = np.int64(mk)
+        nnz += _popcount(mk)
     sq = 0.0
     if need_sq:
-        for j in range(n_in):
-            sq += xs[j] * xs[j]
+        for b in range((n_in + 63) >> 6):
+            m = np.uint64(nz[b])
+            while m != 0:
+                j = (b << 6) + np.int64(trailing_zeros(m))
+                m &= m - _ONE
+                sq += xs[j] * xs[j]
     return nnz, sq
 
 
