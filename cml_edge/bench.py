@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends import backend_spec
+from cml_edge.backends.fields import parse_setting
 from cml_edge.bench_fused import FusedLearner, FusedScorer, fused_factored_of
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.step import FactoredScorer, SeamScorer
@@ -66,17 +67,35 @@ SCORERS: dict[str, Callable[[CML], Any]] = {
     "direct": SeamScorer.of, "factored": FactoredScorer.of, "fused": FusedScorer.of}
 
 
-def parse_name(name: str) -> tuple[str, dict[str, Any]]:
-    """``backend`` or ``backend:preset`` -> (backend, options); InputError if unknown."""
+def parse_name(name: str, settings: Sequence[str] = ()) -> tuple[str, dict[str, Any]]:
+    """``backend`` or ``backend:preset`` -> (backend, options), with ``settings`` (``--set``
+    texts, ``field=value``) applied; InputError if anything is unknown or contradicts the
+    backend name."""
     backend, _, preset = name.partition(":")
     spec = backend_spec(backend)
-    if not preset:
-        return backend, {}
-    presets = spec.device.presets if spec.device.default_preset(backend) else {}
-    if preset not in presets:
-        raise InputError(f"unknown preset {preset!r} for {backend!r}; allowed: "
-                         f"{', '.join(presets) or 'none (it takes no preset)'}")
-    return backend, {"preset": preset}
+    options: dict[str, Any] = {}
+    if preset:
+        presets = spec.device.presets if spec.device.default_preset(backend) else {}
+        if preset not in presets:
+            raise InputError(f"unknown preset {preset!r} for {backend!r}; allowed: "
+                             f"{', '.join(presets) or 'none (it takes no preset)'}")
+        options["preset"] = preset
+    if settings:
+        device = spec.device
+        for text in settings:
+            field, value = parse_setting(device.config_class, text, device.name)
+            fixed = device.fixes(backend)
+            if field in fixed and fixed[field] != value:
+                raise InputError(f"--set {text.strip()} conflicts with {backend} ({field} "
+                                 f"{fixed[field]})")
+            options[field] = value
+        device.make_config(**{**spec.options, **options})  # validated now, before timing
+    return backend, options
+
+
+def label(name: str, settings: Sequence[str] = ()) -> str:
+    """A bench entry's key: the name, and the settings it was timed with."""
+    return f"{name} ({', '.join(s.strip() for s in settings)})" if settings else name
 
 
 def expand_presets(names: Sequence[str]) -> list[str]:
@@ -126,11 +145,12 @@ def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     return (time.process_time() - t0) / max(int(res.steps.sum()), 1)
 
 
-def bench_backend(name: str, repeats: int = 5, paths: Sequence[str] | None = None
-                  ) -> dict[str, float]:
-    """The figures of one backend name (see the module docstring); ``paths`` defaults to
-    the direct path, and the factored one where the arrays support it."""
-    backend, options = parse_name(name)
+def bench_backend(name: str, repeats: int = 5, paths: Sequence[str] | None = None,
+                  settings: Sequence[str] = ()) -> dict[str, float]:
+    """The figures of one backend name (see the module docstring), its device fields set
+    by ``settings``; ``paths`` defaults to the direct path, and the factored one where the
+    arrays support it."""
+    backend, options = parse_name(name, settings)
     arena = GridArena.empty(30)
     pairs = draw_pairs(arena, 100, EVAL_SEED)
     starts = np.ascontiguousarray(pairs.starts, dtype=np.int64)
@@ -186,24 +206,29 @@ def ratios(float_figs: dict[str, float], fused: dict[str, float],
 
 
 def run_bench(names: Sequence[str], repeats: int = 5,
-              progress: Callable[[int, int], None] | None = None) -> dict[str, object]:
-    """``{"backends": {name: figures}, "yardstick": ..., "ratios": ...}`` for each name;
-    float64 and the yardstick are always timed (the ratios' denominators)."""
+              progress: Callable[[int, int], None] | None = None,
+              settings: Sequence[str] = ()) -> dict[str, object]:
+    """``{"backends": {key: figures}, "yardstick": ..., "ratios": ...}`` for each name, with
+    ``settings`` (``field=value``) applied to each named backend (its key then lists them,
+    :func:`label`); float64 and the yardstick are always timed, as they are (the ratios'
+    denominators)."""
     for name in names:
-        parse_name(name)
+        parse_name(name, settings)
     total = len(names) + 1
     fused = bench_backend("float", repeats, ("fused", "fused_factored"))
     if progress is not None:
         progress(1, total)
+    keys = {label(name, settings): name for name in names}
     result: dict[str, dict[str, float]] = {}
-    for i, name in enumerate(dict.fromkeys(["float", *names])):
-        result[name] = bench_backend(name, repeats)
+    for i, key in enumerate(dict.fromkeys(["float", *keys])):
+        result[key] = bench_backend(keys.get(key, "float"), repeats,
+                                    settings=settings if key != "float" else ())
         if progress is not None:
             progress(min(i + 2, total), total)
     others = {n: f for n, f in result.items() if n != "float"}
-    return {"backends": {n: result[n] for n in names}, "yardstick": fused,
+    return {"backends": {k: result[k] for k in keys}, "yardstick": fused,
             "ratios": ratios(result["float"], fused, others), "repeats": repeats,
-            "walks": WALKS, "steps": STEPS}
+            "walks": WALKS, "steps": STEPS, "settings": [s.strip() for s in settings]}
 
 
 ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, steps, goals

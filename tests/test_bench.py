@@ -8,6 +8,7 @@ from cml_edge.bench import (
     LEARNERS,
     SCORERS,
     expand_presets,
+    label,
     parse_name,
     ratios,
     time_plan,
@@ -93,6 +94,27 @@ def test_names_with_presets():
     assert names[0] == "float" and names[-1] == "crossbar:pcm"
     assert {"crossbar:ideal", "crossbar:pcm", "crossbar:reram", "crossbar:pcm-symmetric",
             "crossbar:reram-symmetric"} <= set(names[1:-1])
+
+
+def test_settings_change_the_named_backends_only_when_valid():
+    assert parse_name("crossbar:pcm", ["out_noise=0"]) == (
+        "crossbar", {"preset": "pcm", "out_noise": 0.0})
+    assert parse_name("int8", ["rounding=floor"])[1] == {"rounding": "floor"}
+    for name, setting in (("float", "out_noise=0"), ("int8", "bits=6"),
+                          ("crossbar", "out_noise=-1"), ("crossbar", "out_noise")):
+        with pytest.raises(InputError):
+            parse_name(name, [setting])
+    assert label("crossbar:pcm", [" out_noise=0", "adc_bits=0"]) == \
+        "crossbar:pcm (out_noise=0, adc_bits=0)"
+    assert label("crossbar:pcm") == "crossbar:pcm"
+
+
+def test_bench_refuses_a_setting_before_timing(capsys):
+    from cml_edge.cli import main
+
+    assert main(["bench", "--backends", "float", "--set", "out_noise=0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "out_noise" in err
 
 
 def test_ratios_divide_figures_of_one_run():

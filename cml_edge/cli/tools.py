@@ -57,6 +57,11 @@ def add_parsers(sub) -> None:
     p.add_argument("--presets", action="store_true",
                    help="time every preset of a backend that takes one (crossbar: ideal, pcm, "
                         "reram, pcm-symmetric, reram-symmetric)")
+    p.add_argument("--set", dest="settings", action="append", default=[],
+                   metavar="FIELD=VALUE",
+                   help="set a device field of every named backend, repeatable (e.g. "
+                        "crossbar:pcm --set out_noise=0: the preset without its read noise); "
+                        "float64, the ratios' denominator, is timed as it is")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
     p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
                    help="also time the wheeled robot on these simulators (kinematic, mujoco)")
@@ -94,7 +99,8 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
         parse_name(name)
     if args.presets:
         names = expand_presets(names)
-    result = run_bench(names, repeats=args.repeats, progress=Progress("bench"))
+    result = run_bench(names, repeats=args.repeats, progress=Progress("bench"),
+                       settings=args.settings)
     if args.robot:
         from cml_edge.bench import bench_robot
 
