@@ -14,9 +14,10 @@ shared with other jobs, their load does not enter the figures or their ratios):
 A backend name may carry a preset, ``crossbar:reram`` (``presets=True`` benches every
 preset of a backend that takes one), and ``settings`` (``--set field=value``) change device
 fields of every named backend, whose keys then list them (``crossbar:pcm (out_noise=0)``:
-the preset without its read noise, against the same float64 denominator). Every run also times the yardstick
-(:mod:`cml_edge.bench_fused`: the float64 step hand-fused into a plain Numba function,
-bit-identical to the direct path) and gives, measured in the same run, the ``ratios``:
+the preset without its read noise, against the same float64 denominator). Every run also
+times the yardstick (:mod:`cml_edge.bench_fused`: the float64 step hand-fused into a plain
+Numba function, bit-identical to the direct path) and gives, measured in the same run, the
+``ratios``:
 float64 direct / fused (goal 1.3), factored / fused factored (goal 1.1), and each other
 backend's direct path / float64 direct, per training and per planning step (goal 2).
 
