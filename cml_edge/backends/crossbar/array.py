@@ -52,9 +52,11 @@ class CrossbarState(NamedTuple):
     alpha: np.ndarray  # float64[1]: drift-compensation factor of the outputs (1 until drift)
     elapsed: np.ndarray  # float64[1]: seconds let pass with ``elapse``
     rng: np.ndarray  # uint64[2]: stream key, draw counter
-    xbuf: np.ndarray  # float64[max(rows, cols)]: scaled, converted inputs of a read
+    xbuf: np.ndarray  # float64[max(rows, cols)]: scaled, converted inputs of a read, then
+    # the candidate normals of its noise (kernels._add_noise)
     ybuf: np.ndarray  # float64[max(rows, cols)]: analog sums of a read
-    bits: np.ndarray  # int64[rows + cols]: pulse trains of the lines (bit t = slot t)
+    bits: np.ndarray  # int64[rows + cols]: pulse trains of the lines (bit t = slot t); in a
+    # read, the masks of its nonzero inputs and of its rejected noise words
     idx: np.ndarray  # int64[max(rows, cols)]: the columns that fired
     nu_z: np.ndarray  # (2, rows, cols) float64: each device's fixed normal behind nu
     bnd: np.ndarray  # (4, rows, cols) float64: bounds lo, hi of G+, then of G- (uS)
