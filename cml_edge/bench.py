@@ -85,9 +85,9 @@ def parse_name(name: str, settings: Sequence[str] = ()) -> tuple[str, dict[str, 
         options["preset"] = preset
     if settings:
         device = spec.device
+        fixed = device.fixes(backend)
         for text in settings:
             field, value = parse_setting(device.config_class, text, device.name)
-            fixed = device.fixes(backend)
             if field in fixed and fixed[field] != value:
                 raise InputError(f"--set {text.strip()} conflicts with {backend} ({field} "
                                  f"{fixed[field]})")

@@ -130,8 +130,8 @@ BLOCK_OUTPUTS = 64
 """A read with at least this many outputs takes its normals' fast path in one vectorised
 pass (:func:`_add_noise`); a shorter one draws in order."""
 BLOCK_PAD = 16
-"""Candidates beyond the outputs, for the words the slow paths consume (~4.6 in a read of
-256 outputs); past them a read draws in order."""
+"""Candidates beyond the outputs, for the words the slow paths consume (5.6 on average in a
+read of 256 outputs); past them a read draws in order."""
 
 
 # ziggurat tables (Marsaglia & Tsang 2000, 256 layers) ----------------------------------
