@@ -1,4 +1,4 @@
-"""Shared against independent stochastic-rounding draws on the ``loihi2`` array (issue 13).
+"""Shared against independent stochastic-rounding draws on the ``loihi2`` array.
 
     python benchmarks/rounding_correlation.py [--epochs 100 900] [--trials 50] [--json]
 

@@ -12,7 +12,7 @@ the seam (:mod:`cml_edge.backends.dispatch`); and the ``commit`` of the three ar
 after a walk of 900 learning steps between one pair of observations (the median over 5
 walks, each on a fresh model). Microseconds of process CPU time per call, after a
 warm-up call. The figures are the kernels' own cost; ``cml-edge bench`` gives the whole
-step (issue 15).
+step.
 
 Run from the repository root (so that ``cml_edge`` is this checkout's).
 """
@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.dispatch import sa_commit, sa_matvec, sa_outer_update
-from cml_edge.bench import parse_name
+from cml_edge.bench.timing import parse_name
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.step import SeamLearner, learn
 

@@ -9,10 +9,21 @@ fixed point, crossbar) runs it unchanged, in every world (:mod:`cml_edge.grid`,
 from __future__ import annotations
 
 import hashlib
+import importlib.abc
+import importlib.util
 import os
+import sys
 from pathlib import Path
 
 __version__ = "0.1.0"
+
+GYMNASIUM_ENVS = {
+    "cml_edge/GridNav-v0": ("cml_edge.grid.env:GridNavEnv", {}),
+    "cml_edge/GridNavGoal-v0": ("cml_edge.grid.env:GridNavEnv", {"goal_conditioned": True}),
+    "cml_edge/RobotNav-v0": ("cml_edge.robot.env:RobotNavEnv", {}),
+}
+"""The Gymnasium environment ids of the grid (:mod:`cml_edge.grid.env`) and the robot
+(:mod:`cml_edge.robot.env`), and their entry points and keyword arguments."""
 
 
 def _numba_cache_dir() -> None:
@@ -40,4 +51,43 @@ def _numba_cache_dir() -> None:
         pass
 
 
+def register_envs() -> None:
+    """Register :data:`GYMNASIUM_ENVS` with Gymnasium (idempotent); the environments'
+    modules are imported only when one is made."""
+    import gymnasium
+
+    for env_id, (entry_point, kwargs) in GYMNASIUM_ENVS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point, kwargs=dict(kwargs),
+                               max_episode_steps=None)
+
+
+class _RegisterOnGymnasiumImport(importlib.abc.MetaPathFinder):
+    """Registers the environments right after ``gymnasium`` is first imported, so that
+    ``import cml_edge`` registers them without importing Gymnasium itself."""
+
+    def find_spec(self, name, path, target=None):
+        if name != "gymnasium":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.loader is not None:
+            exec_module = spec.loader.exec_module
+
+            def exec_then_register(module):
+                exec_module(module)
+                register_envs()
+
+            spec.loader.exec_module = exec_then_register
+        return spec
+
+
+def _register_envs_lazily() -> None:
+    if "gymnasium" in sys.modules:
+        register_envs()
+    elif not any(isinstance(f, _RegisterOnGymnasiumImport) for f in sys.meta_path):
+        sys.meta_path.insert(0, _RegisterOnGymnasiumImport())
+
+
 _numba_cache_dir()
+_register_envs_lazily()

@@ -3,7 +3,7 @@ random streams, and the DQN's rewards.
 
 Every random draw of training and exploration (grid and robot), the robot's evaluation
 goals, stochastic rounding and device noise is ``uniform(stream_key(seed, STREAM),
-counter)`` (:mod:`cml_edge.rng`), one stream per independent use, so that a draw depends
+counter)`` (:mod:`cml_edge.jit.rng`), one stream per independent use, so that a draw depends
 only on (seed, stream, counter). Five draws use NumPy generators seeded from the same
 integers instead: the CML's initial weights (:meth:`cml_edge.core.cml.CML.create`, keyed
 ``[seed, STREAM_INIT]``), the states whose reads the read-SNR metric samples (keyed
@@ -24,7 +24,7 @@ EVAL_SEED = 123
 MAX_SEED = 2**63 - 1
 """The largest model seed: the compiled training loops carry it as an int64."""
 MAX_STREAM_SEED = 2**64 - 1
-"""The largest seed of a counter-based stream (:func:`cml_edge.rng.stream_key`, a uint64)."""
+"""The largest seed of a counter-based stream (:func:`cml_edge.jit.rng.stream_key`, a uint64)."""
 
 # random streams (one per independent use) --------------------------------------------------
 STREAM_WALK_START = 1

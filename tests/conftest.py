@@ -1,4 +1,6 @@
-"""Shared fixtures: small arenas and configurations that keep the suite fast."""
+"""Shared fixtures (small arenas and configurations that keep the suite fast) and the
+``slow`` marker: ``python -m pytest`` skips the tests marked slow, ``--slow`` (what CI and
+the README's test command run) runs everything."""
 
 from __future__ import annotations
 
@@ -35,3 +37,22 @@ def cli(capsys):
         return code, out, err
 
     return run
+
+
+def pytest_addoption(parser):
+    parser.addoption("--slow", action="store_true",
+                     help="also run the tests marked slow (CI runs everything)")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: a test that takes seconds to minutes; run "
+                            "with --slow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--slow"):
+        return
+    skip = pytest.mark.skip(reason="slow: run with --slow")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)

@@ -38,7 +38,7 @@ class SynapticArray:
     Optional: ``elapse`` (drift), ``_restore`` (checks of a loaded state) and
     ``_upgrade`` (a state dict of an older layout).
 
-    Counters every device keeps (the contract, ``tests/test_array_contract.py``):
+    Counters every device keeps (the contract, ``tests/backends/test_device_contract.py``):
     ``matvecs``, ``rmatvecs``, ``outer_updates`` and ``commits`` count the calls, one
     each; no counter ever decreases (until ``reset_counters``).
     """

@@ -4,7 +4,7 @@ The registry (:mod:`cml_edge.backends`) holds one ``DeviceSpec`` per device and 
 from them everything the rest of the package asks about devices: the backend names
 ``--backend`` accepts and their options, the command-line options (from the config
 fields, :mod:`cml_edge.cli.args`), the cost model of the hardware budget
-(:func:`cml_edge.budget.technology`) and the systems of the budget report.
+(:func:`cml_edge.costs.ledger.technology`) and the systems of the budget report.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ class DeviceSpec:
     - ``backends``: backend name -> :class:`Backend`;
     - ``presets``: preset name -> field values;
     - ``technology``: the budget's cost model of an array (a key of
-      :data:`cml_edge.budget.TECHNOLOGIES`), as a name or a function of the array's
+      :data:`cml_edge.costs.ledger.TECHNOLOGIES`), as a name or a function of the array's
       config; None: not costed;
     - ``report``: the systems of the budget report, (label, backend, options).
     """

@@ -3,7 +3,7 @@
 A device registers its ``@njit`` kernels for its state class (:func:`register`); a
 compiled loop (training, planning) calls ``sa_matvec(state, x, out)`` and friends, and
 Numba resolves each call, while typing the loop, to the kernel registered for the type
-of ``state`` (:func:`cml_edge.routing.routed`). The loop is written once and never asks
+of ``state`` (:func:`cml_edge.jit.routing.routed`). The loop is written once and never asks
 which array it runs on; each device's arithmetic has one source of truth, its kernels,
 which its Python-level array methods call through the same functions.
 
@@ -25,12 +25,12 @@ from typing import NamedTuple
 
 from numba.core.errors import NumbaIRAssumptionWarning
 
-from cml_edge.routing import routed
+from cml_edge.jit.routing import routed
 
 # Kernels are inlined at Numba-IR level (inline="always"): a call through the seam
 # otherwise costs more than the arithmetic of a 256 x 8 read (the call, and, in a loop
 # compiled with reference counting, the counts of every array in the state tuple; the
-# training and planning loops are kernels, :mod:`cml_edge.kernel`, and pay none). Numba's
+# training and planning loops are kernels, :mod:`cml_edge.jit.kernel`, and pay none). Numba's
 # SSA pass emits an internal "pedantic"
 # NumbaIRAssumptionWarning for inlined loops; it flags no error (the tests hold the
 # inlined and the called kernels to bit equality), so it is muted.

@@ -1,4 +1,4 @@
-"""Fixed-point number formats, rounding modes and saturation (Loihi-style, issue 3).
+"""Fixed-point number formats, rounding modes and saturation (Loihi-style).
 
 A format is a signed mantissa of ``bits`` bits (2..16) and one power-of-two exponent
 ``e`` per matrix: value = m * 2^e, with m in [-qmax, qmax], qmax = 2^(bits-1) - 1
@@ -17,7 +17,7 @@ Rounding modes, used wherever the learning path narrows a value to fewer bits
 - ``nearest``: to the nearest integer, ties to even (unbiased on ties, which are
   frequent here: a one-hot factor is a power of two);
 - ``stochastic``: floor + Bernoulli(fraction), one independent draw per element from
-  the counter-based generator (:mod:`cml_edge.rng`), so E[SR(x)] = x exactly
+  the counter-based generator (:mod:`cml_edge.jit.rng`), so E[SR(x)] = x exactly
   (up to the generator's 2^-53 resolution). Lava shares one draw per learning epoch
   across all synapses; we do not.
 
@@ -43,8 +43,8 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from cml_edge.errors import InputError
-from cml_edge.kernel import kernel
-from cml_edge.rng import uniform
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import uniform
 
 ROUNDINGS = ("floor", "nearest", "stochastic")
 FLOOR, NEAREST, STOCHASTIC = 0, 1, 2
@@ -142,7 +142,7 @@ _INF_BITS = np.uint64(0x7FF0_0000_0000_0000)  # +inf; NaNs lie above it
 @njit(cache=True, inline="always")
 def pow2(n):
     """2.0^n, exactly: for -1022 <= n <= 1023 (a normal double) the bit pattern with
-    exponent field n + 1023, else ``math.ldexp``. Issue 15: the libm calls of every read,
+    exponent field n + 1023, else ``math.ldexp``. The libm calls of every read,
     quantisation and update (``scalbn``, ``ldexp``, ``frexp``) were ~5 % of an int8
     training."""
     if -1022 <= n <= 1023:
@@ -185,7 +185,7 @@ def max_abs(x, n):
 
     For non-negative float64 values, ordering the bit patterns as unsigned integers
     orders the values, so the largest pattern of |x| (the sign bit cleared) is the
-    pattern of max |x|: an integer max, exact in any order, that vectorises (issue 15: a
+    pattern of max |x|: an integer max, exact in any order, that vectorises (a
     float max with NaN-safe selects does not; 68 -> 21 ns for 256 entries, measured with a
     throwaway loop). Patterns at or above that of inf are non-finite: then a float loop
     gives the max with any NaN passed over (``a > top`` is false for it).

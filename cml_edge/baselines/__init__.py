@@ -14,15 +14,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.errors import InputError
 
 RESULTS_FORMAT = "cml-edge-dqn-results"
 RESULTS_VERSION = 1
-DEFAULT_RESULTS = Path("hw_reports") / "baselines" / "dqn_results.json"
-
-# The paper's DQN (2.3): 2 inputs (x, y), two hidden layers of 64 (ReLU), 8 actions.
-PAPER_LAYERS = (2, 64, 64, 8)
-GOAL_CONDITIONED_LAYERS = (4, 64, 64, 8)
 
 
 def mlp_parameter_count(layers: Sequence[int]) -> int:
@@ -40,7 +36,7 @@ def mlp_inference_flops(layers: Sequence[int]) -> int:
     return sum(2 * a * b for a, b in zip(layers[:-1], layers[1:]))
 
 
-def load_results(path: str | Path = DEFAULT_RESULTS) -> dict[str, Any] | None:
+def load_results(path: str | Path = RESULTS_PATH) -> dict[str, Any] | None:
     """The stored DQN results (what ``cml-edge dqn train|evaluate`` wrote), or None.
 
     Needs no extra: this is how the hardware-budget report reads the baseline.

@@ -46,7 +46,6 @@ import fcntl
 import json
 import os
 import platform
-import sys
 import time
 import warnings
 from collections.abc import Iterator, Sequence
@@ -58,9 +57,6 @@ import numpy as np
 
 from cml_edge import __version__
 from cml_edge.baselines import (
-    DEFAULT_RESULTS,
-    GOAL_CONDITIONED_LAYERS,
-    PAPER_LAYERS,
     RESULTS_FORMAT,
     RESULTS_VERSION,
     load_results,
@@ -70,9 +66,12 @@ from cml_edge.baselines import (
 from cml_edge.baselines.settings import (  # noqa: F401 - all re-exported
     DEFAULT_STEPS,
     EVAL_EVERY,
+    GOAL_CONDITIONED_LAYERS,
     HYPERPARAMS,
     MODELS_DIR,
     NET_ARCH,
+    PAPER_LAYERS,
+    RESULTS_PATH,
     DQNRun,
 )
 from cml_edge.errors import InputError
@@ -86,8 +85,8 @@ from cml_edge.grid.metrics import (
     geodesic_distances,
     summarize,
 )
+from cml_edge.io.files import atomic_write_text
 from cml_edge.protocol import EVAL_SEED
-from cml_edge.storage import atomic_write_text
 
 EXTRA_HINT = ("the DQN needs the optional extra: pip install torch==2.13.0 && "
               "pip install -e '.[dqn]'")
@@ -233,7 +232,7 @@ def _model_path(models: str | Path, run: DQNRun, seed: int) -> Path:
 
 
 # train -----------------------------------------------------------------------------
-def train_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAULT_RESULTS,
+def train_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = RESULTS_PATH,
                models: str | Path | None = MODELS_DIR, command: str = "",
                progress=None) -> dict[str, Any]:
     """Train every seed of ``seeds`` not yet in ``results``; write after each seed."""
@@ -295,7 +294,7 @@ def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
     on the pairs after every walk (step 0 = untrained); the training time at every point
     excludes the evaluation. With ``curves_from`` (the result of another path on the same
     seeds) the curve is taken from it instead of planned again: the factored and direct
-    paths give the same weights to rounding (tests/test_paths.py), so only the timing is
+    paths give the same weights to rounding (tests/core/test_paths.py), so only the timing is
     new."""
     from cml_edge.core.cml import CML, CMLConfig
     from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
@@ -332,7 +331,7 @@ def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
             "convergence": curve_convergence(curve_steps, curves, walls, cpus)}
 
 
-def evaluate_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = DEFAULT_RESULTS,
+def evaluate_runs(run: DQNRun, seeds: Sequence[int], results: str | Path = RESULTS_PATH,
                   command: str = "", with_cml: bool = True) -> dict[str, Any]:
     """Evaluate the trained seeds (from their saved models when present, else from the
     evaluation recorded at the end of training), the CML on the same pairs, and the
@@ -410,9 +409,9 @@ def _ratio(a: float, b: float) -> float | None:
 def plot_results(data: dict[str, Any], path: str | Path) -> None:
     """Figure 4A-like PNG: mean episode return and evaluation e_pos against training
     steps (mean and standard deviation over seeds), the CML's e_pos when evaluated."""
-    from cml_edge.plots import _figure, save_png
+    from cml_edge.io.figures import pyplot, save_png
 
-    plt = _figure()
+    plt = pyplot()
     fig, (ax_r, ax_e) = plt.subplots(1, 2, figsize=(11, 4))
     for _key, entry in sorted(data["runs"].items()):
         recs = list(entry["seeds"].values())
@@ -456,10 +455,3 @@ def plot_results(data: dict[str, Any], path: str | Path) -> None:
         ax.legend(fontsize=7)
     save_png(fig, path)
     plt.close(fig)
-
-
-if __name__ == "__main__":  # pragma: no cover - the same as ``cml-edge dqn ...``
-    from cml_edge.cli import main
-
-    sys.argv = ["cml-edge", "dqn", *sys.argv[1:]]
-    sys.exit(main(sys.argv[1:]))

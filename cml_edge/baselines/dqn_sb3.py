@@ -26,7 +26,7 @@ from cml_edge.baselines.settings import HYPERPARAMS, NET_ARCH, DQNRun
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.env import GridNavEnv, apply_moves, scale_positions
 from cml_edge.grid.metrics import Pairs
-from cml_edge.storage import atomic_write
+from cml_edge.io.files import atomic_write
 
 torch.set_num_threads(1)
 

@@ -1,5 +1,7 @@
-"""The DQN baseline's settings: what both :mod:`cml_edge.baselines.dqn` (results, pairs,
-the CML beside it) and :mod:`cml_edge.baselines.dqn_sb3` (the torch side) need.
+"""The DQN baseline's settings, in one place: the network, the training hyperparameters,
+the budgets and where results and models go. What :mod:`cml_edge.baselines.dqn`
+(results, pairs, the CML beside it), :mod:`cml_edge.baselines.dqn_sb3` (the torch side),
+the DQN cost estimates (:mod:`cml_edge.costs.dqn`) and the report read.
 
 Light to import (no torch): the two modules import this one and never each other at
 load time, so the import graph is ``settings <- dqn_sb3 <- dqn`` (the last lazily, when
@@ -12,9 +14,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from cml_edge.baselines import GOAL_CONDITIONED_LAYERS, PAPER_LAYERS
 from cml_edge.errors import InputError
 from cml_edge.protocol import EVAL_SEED, REWARDS
+
+# The paper's DQN (2.3): 2 inputs (x, y), two hidden layers of 64 (ReLU), 8 actions.
+PAPER_LAYERS = (2, 64, 64, 8)
+GOAL_CONDITIONED_LAYERS = (4, 64, 64, 8)
+RESULTS_PATH = Path(__file__).resolve().parents[2] / "hw_reports" / "baselines" / "dqn_results.json"
+"""The DQN results file ``cml-edge dqn`` writes and the report and the recovery scenario's
+retraining estimate read: the checkout's ``hw_reports/baselines/dqn_results.json``."""
 
 # Training budgets of the paper (2.3): 100,000 steps with Eq. 6, 200,000 with Eq. 7.
 DEFAULT_STEPS = {"simplified": 100_000, "tailored": 200_000}

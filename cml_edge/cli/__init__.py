@@ -4,7 +4,7 @@
 - :mod:`~cml_edge.cli.robot`: ``robot train|evaluate|navigate``;
 - :mod:`~cml_edge.cli.dqn`: ``dqn train|evaluate``;
 - :mod:`~cml_edge.cli.tools`: ``sweep``, ``report``, ``bench``;
-- :mod:`~cml_edge.cli.scenario`: ``scenario``, ``breakpoint`` (issue 14);
+- :mod:`~cml_edge.cli.scenario`: ``scenario``, ``breakpoint``;
 - :mod:`~cml_edge.cli.device`: ``device characterize``;
 - :mod:`~cml_edge.cli.export`: ``export`` (a loihi2 model's weights for Lava);
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the

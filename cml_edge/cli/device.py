@@ -54,7 +54,7 @@ def add_parsers(sub) -> None:
 
 def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.crossbar.characterize import characterize, plot
-    from cml_edge.storage import atomic_write_text
+    from cml_edge.io.files import atomic_write_text
 
     if args.backend != "crossbar":
         raise InputError(f"device characterize has no model of --backend {args.backend!r} "

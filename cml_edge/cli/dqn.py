@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from cml_edge.baselines import DEFAULT_RESULTS, load_results
+from cml_edge.baselines import load_results
 from cml_edge.baselines.dqn import evaluate_runs, train_runs
-from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, DQNRun
+from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, RESULTS_PATH, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
+from cml_edge.io.files import writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, REWARDS
-from cml_edge.storage import writable_file, writable_folder
 
 
 def add_parsers(subparsers) -> None:
@@ -39,8 +39,8 @@ def add_parsers(subparsers) -> None:
                        help=f"evaluation seed: goals and pairs ({EVAL_SEED})")
         q.add_argument("--eval-every", type=positive_int, default=EVAL_EVERY,
                        help=f"training steps between curve points ({EVAL_EVERY})")
-        q.add_argument("--results", default=str(DEFAULT_RESULTS),
-                       help=f"results file ({DEFAULT_RESULTS})")
+        q.add_argument("--results", default=str(RESULTS_PATH),
+                       help=f"results file ({RESULTS_PATH})")
         q.add_argument("--json", action="store_true", help="print one JSON object on stdout")
         if name == "train":
             q.add_argument("--models", default=str(MODELS_DIR),

@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from cml_edge.core.model_file import MATRICES, load_model
 from cml_edge.errors import InputError
-from cml_edge.storage import MATRICES, atomic_write, atomic_write_text, load_model
+from cml_edge.io.files import atomic_write, atomic_write_text
 
 FORMATS = ("lava",)
 

@@ -25,6 +25,7 @@ from cml_edge.cli.args import (
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import SCHEDULES
+from cml_edge.core.model_file import load_model, save_model
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import Evaluation, default_path, run_protocol
@@ -33,8 +34,8 @@ from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
+from cml_edge.io.files import atomic_write, writable_file
 from cml_edge.protocol import EVAL_SEED, check_seeds
-from cml_edge.storage import atomic_write, load_model, save_model, writable_file
 
 
 def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
@@ -275,7 +276,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
            "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist()}
     out["path"] = out["trajectory"]  # the older name of the trajectory
     if args.plot:
-        from cml_edge.plots import plot_navigation
+        from cml_edge.grid.plots import plot_navigation
 
         plot_navigation(args.plot, arena, trajectory, args.start, args.goal)
         out["plot"] = args.plot

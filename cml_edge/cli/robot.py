@@ -21,6 +21,7 @@ from cml_edge.cli.args import (
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
+from cml_edge.io.files import writable_file
 from cml_edge.protocol import EVAL_SEED, MAX_STREAM_SEED, check_seeds
 from cml_edge.robot.models import (
     asdict_options,
@@ -43,7 +44,6 @@ from cml_edge.robot.planning import (
 )
 from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
 from cml_edge.robot.training import RobotTrainConfig
-from cml_edge.storage import writable_file
 
 
 def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:

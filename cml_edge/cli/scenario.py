@@ -1,4 +1,4 @@
-"""``cml-edge scenario | breakpoint``: the workloads that tell devices apart (issue 14)."""
+"""``cml-edge scenario | breakpoint``: the workloads that tell devices apart."""
 
 from __future__ import annotations
 
@@ -16,10 +16,10 @@ from cml_edge.cli.args import (
     finite_float,
     positive_int,
 )
+from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import KNOBS, MIN_SEEDS, find_breakpoint
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
 from cml_edge.scenarios.runner import run_scenario
-from cml_edge.storage import atomic_write_text, writable_file, writable_folder
 
 
 def _add_common(p: argparse.ArgumentParser, seeds: int) -> None:

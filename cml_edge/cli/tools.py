@@ -11,8 +11,8 @@ from cml_edge.backends import BACKENDS
 from cml_edge.cli.args import Progress, command_line, positive_int
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
+from cml_edge.io.files import writable_folder
 from cml_edge.robot.sim import SIMS
-from cml_edge.storage import writable_folder
 
 
 def add_parsers(sub) -> None:
@@ -71,8 +71,8 @@ def add_parsers(sub) -> None:
 
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.baselines import load_results
+    from cml_edge.baselines.settings import RESULTS_PATH
     from cml_edge.report import build_report, write_report
-    from cml_edge.report.build import DQN_RESULTS
 
     def progress(message: str) -> None:
         if sys.stderr.isatty():
@@ -80,10 +80,10 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.dqn_results is not None and not Path(args.dqn_results).is_file():
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
-    load_results(args.dqn_results or DQN_RESULTS)  # a bad file fails now, not after the runs
+    load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     writable_folder(args.out, "--out")
     report = build_report(quick=args.quick, command=command_line(),
-                          progress=progress, dqn_results=args.dqn_results or DQN_RESULTS)
+                          progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
     folder = write_report(report, args.out)
     if args.json:
         return report
@@ -92,7 +92,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
-    from cml_edge.bench import expand_presets, parse_name, run_bench
+    from cml_edge.bench.timing import expand_presets, parse_name, run_bench
 
     names = args.backends or sorted(BACKENDS)
     for name in names:
@@ -102,7 +102,7 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
     result = run_bench(names, repeats=args.repeats, progress=Progress("bench"),
                        settings=args.settings)
     if args.robot:
-        from cml_edge.bench import bench_robot
+        from cml_edge.bench.timing import bench_robot
 
         result["robot"] = bench_robot(args.robot, args.repeats)
     return result

@@ -9,7 +9,7 @@ A world's training loop (the grid's :func:`cml_edge.grid.training.train_loop`, t
 
 and its planning loop calls ``prepare(scorer, normalize, gram)`` once per batch and
 ``scores(scorer, o, dgo, u, score)`` at every decision, then :func:`wta`. Each of these is
-routed by the type of the plug-in (:func:`cml_edge.routing.routed`), so one loop serves
+routed by the type of the plug-in (:func:`cml_edge.jit.routing.routed`), so one loop serves
 every learner and scorer, compiled or, through the loop's ``py_func``, in plain Python:
 
 - :class:`SeamLearner` / :class:`SeamScorer`: the reads and updates through the three
@@ -40,8 +40,8 @@ from cml_edge.backends.dispatch import (
     sa_rmatvec,
     sa_sigmoid,
 )
-from cml_edge.kernel import allocates
-from cml_edge.routing import routed
+from cml_edge.jit.kernel import allocates
+from cml_edge.jit.routing import routed
 
 
 # the routed plug-in functions ------------------------------------------------------------

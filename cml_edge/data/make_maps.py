@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from cml_edge.grid.maps import GridMap, format_map, format_scen, octile_distances, parse_map
-from cml_edge.storage import atomic_write_text
+from cml_edge.io.files import atomic_write_text
 
 SIDE = 32
 N_SCEN = 100

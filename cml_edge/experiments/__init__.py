@@ -1,9 +1,8 @@
-"""The paper's experiments as commands (``cml-edge sweep NAME``), plus two past it.
+"""The paper's experiments as commands (``cml-edge sweep NAME``), plus three past it.
 
 One readable module per experiment; each lists its (configuration x seed) tasks for
-the sweep engine (:mod:`cml_edge.sweep`) and writes ``results.json``, ``results.csv``
-and ``figure.png`` (:mod:`cml_edge.experiments.common`). ``choices`` is a standalone
-script (``python -m cml_edge.experiments.choices``), not a sweep.
+the sweep engine (:mod:`cml_edge.engine.sweep`) and writes ``results.json``, ``results.csv``
+and ``figure.png`` (:mod:`cml_edge.experiments.common`).
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ from types import ModuleType
 from cml_edge.errors import InputError
 
 EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "obstacles",
-               "maps", "backends")
+               "maps", "backends", "choices")
 
 
 def get(name: str) -> ModuleType:

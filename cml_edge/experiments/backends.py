@@ -1,6 +1,6 @@
 """The protocol across every registered synaptic array (and every crossbar preset).
 
-    cml-edge sweep backends               # or: python -m cml_edge.experiments.backends
+    cml-edge sweep backends
 
 For each name in :data:`cml_edge.backends.BACKENDS` (and each preset of an array class
 that has ``PRESETS``): ten CMLs trained on the empty 30 x 30 arena on that array,
@@ -12,21 +12,19 @@ they register.
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 from cml_edge.backends import BACKENDS
+from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     reject,
     summary_rows,
 )
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 NAME = "backends"
 CLAIM = "(not in the paper) the same protocol on every emulated synaptic array"
@@ -87,6 +85,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

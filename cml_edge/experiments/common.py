@@ -19,7 +19,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -27,15 +26,16 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CMLConfig
+from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
 from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
 from cml_edge.grid.metrics import Pairs, draw_pairs, summarize
 from cml_edge.grid.training import TrainConfig
+from cml_edge.io.figures import pyplot
+from cml_edge.io.files import atomic_write_text
 from cml_edge.protocol import EVAL_SEED
-from cml_edge.storage import atomic_write_text
-from cml_edge.sweep import Task, run_sweep
 
 TASK_FN = "cml_edge.experiments.common:train_eval"
 DEFAULT_SEEDS = 10
@@ -76,16 +76,20 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
                steps: int = 900, explore: str = "random", backend: str = "float",
                backend_options: dict[str, Any] | None = None, path: str | None = None,
                epoch: int = 10, curve: bool = False, curve_trials: int = 100,
-               eval_seed: int = EVAL_SEED) -> dict[str, Any]:
+               eval_seed: int = EVAL_SEED,
+               cml_options: dict[str, Any] | None = None) -> dict[str, Any]:
     """The task of every experiment: train model ``seed``, then run each of ``evals``
     (:func:`cml_edge.grid.evaluation.train_and_evaluate`; ``path`` None: its default).
+    ``cml_options``: fields of the CML's config that differ from the defaults
+    (:meth:`cml_edge.core.cml.CMLConfig.for_arena`).
 
     With ``curve``, the model is evaluated on the empty training arena every ``epoch``
     walks (the paper's Figure 4B / 5 curves: e_pos mean, success, overhead mean).
     """
     train_arena = GridArena.empty(arena)
     training = Training(train_arena, TrainConfig(walks, steps, explore),
-                        CMLConfig.for_arena(arena), backend, backend_options or {}, path, epoch)
+                        CMLConfig.for_arena(arena, **(cml_options or {})), backend,
+                        backend_options or {}, path, epoch)
     settings = [_eval_setting(spec, arena) for spec in evals]
     evaluations = [Evaluation(ev_arena, pairs, budget, spec["planner"])
                    for spec, (ev_arena, pairs, budget) in zip(evals, settings)]
@@ -195,9 +199,7 @@ def markdown_table(rows: list[dict[str, Any]], columns: tuple[str, ...]) -> str:
 
 
 def figure():
-    from cml_edge.plots import _figure
-
-    return _figure()
+    return pyplot()
 
 
 def run_experiment(module: Any, out: str | Path | None = None, workers: int | None = None,
@@ -223,13 +225,3 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
     module.plot(rows, results, out / "figure.png")
     summary["out"] = str(out)
     return summary
-
-
-def main_for(module: Any, argv: list[str] | None = None) -> None:
-    """``python -m cml_edge.experiments.NAME [options]``: ``cml-edge sweep NAME [options]``
-    (the same options, checks and exit status)."""
-    from cml_edge.cli import main
-
-    argv = ["sweep", module.NAME, *(sys.argv[1:] if argv is None else argv)]
-    sys.argv = ["cml-edge", *argv]  # the provenance names the command as typed
-    sys.exit(main(argv))

@@ -1,6 +1,6 @@
 """Convergence (the paper's Figure 4B): training error and evaluation e_pos against steps.
 
-    cml-edge sweep convergence            # or: python -m cml_edge.experiments.convergence
+    cml-edge sweep convergence
 
 Ten seeds per exploration strategy, 100 walks x 900 steps on the empty 30 x 30 arena
 (float64 array, factored path); every 2 walks (1,800 steps) the model plans 100 fixed
@@ -10,23 +10,21 @@ steps while e_pos converges after about 20 K steps.
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     mean_curve,
     reject,
     summary_rows,
 )
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 NAME = "convergence"
 CLAIM = ("training error keeps decreasing after 90 K steps; the planning error e_pos "
@@ -83,6 +81,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

@@ -1,6 +1,6 @@
 """Exploration strategies (the paper's Figure 6): random walks against mixed novelty.
 
-    cml-edge sweep exploration            # or: python -m cml_edge.experiments.exploration
+    cml-edge sweep exploration
 
 100 walks x 900 steps, random or mixed (Eqs. 4-5), empty 30 x 30 arena (or the map of
 ``--map``, trained in the empty arena of its size), float64 array, factored path,
@@ -11,23 +11,21 @@ e_pos, mixed slightly better; mixed shortens the paths (lower overhead).
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task
 from cml_edge.errors import InputError
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     summary_rows,
 )
 from cml_edge.grid.maps import load_map, resolve_map
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 # the paper's training, and a short one (100 x 100 steps) where the float models are
 # still imperfect, so that the strategies can differ at all
@@ -93,6 +91,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

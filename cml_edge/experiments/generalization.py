@@ -1,6 +1,6 @@
 """Generalisation to larger arenas (the paper's Figure 7).
 
-    cml-edge sweep generalization         # or: python -m cml_edge.experiments.generalization
+    cml-edge sweep generalization
 
 Trained on the empty 30 x 30 arena (random or mixed, 10 seeds, float64, factored path),
 evaluated on 100 fixed pairs of the empty 30 x 30, 60 x 60 and 120 x 120 arenas. The
@@ -13,23 +13,21 @@ training of :mod:`cml_edge.experiments.exploration` (100 walks x 100 steps).
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     reject,
     summary_rows,
 )
 from cml_edge.experiments.exploration import TRAININGS, per_trial
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 NAME = "generalization"
 CLAIM = ("models trained with mixed exploration generalise better to 60 x 60 and 120 x 120 "
@@ -81,6 +79,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

@@ -1,6 +1,6 @@
 """Hyper-parameters (the paper's Figure 5): steps per walk and number of walks.
 
-    cml-edge sweep hyperparams            # or: python -m cml_edge.experiments.hyperparams
+    cml-edge sweep hyperparams
 
 (A) 100 walks of 900, 600, 300 or 100 steps; (B) 900-step walks, 100, 75, 50 or 25 of
 them. Random exploration, empty 30 x 30 arena, float64 array, factored path, 10 seeds;
@@ -11,21 +11,19 @@ spot" near 45 K steps).
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
+from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     mean_curve,
     reject,
     summary_rows,
 )
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 NAME = "hyperparams"
 CLAIM = ("more steps per walk or more walks do not monotonically lower e_pos or the "
@@ -75,6 +73,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

@@ -11,24 +11,22 @@ both planners. Step budget: :func:`cml_edge.grid.maps.step_budget` (107 on a 32 
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task
 from cml_edge.errors import InputError
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     summary_rows,
 )
 from cml_edge.grid.maps import load_map, resolve_map, shipped_maps, shipped_path
 from cml_edge.grid.planning import PLANNERS
-from cml_edge.plots import save_png
-from cml_edge.sweep import Task
+from cml_edge.io.figures import save_png
 
 NAME = "maps"
 CLAIM = ("(past the paper) a purely greedy local planner fails most pairs that need a "
@@ -107,6 +105,3 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     save_png(fig, path)
     plt.close(fig)
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

@@ -1,6 +1,6 @@
 """Obstacles unseen in training (the paper's Figure 8), paper planner against escape.
 
-    cml-edge sweep obstacles              # or: python -m cml_edge.experiments.obstacles
+    cml-edge sweep obstacles
 
 Ten CMLs trained on the empty 30 x 30 arena (random exploration, float64, factored
 path) plan 100 fixed pairs with 0, 100, 200, 300 and 400 point obstacles placed from
@@ -13,24 +13,22 @@ The paper: fine at 100-200 obstacles, the planner halts in front of clusters at
 
 from __future__ import annotations
 
-import sys
 from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
     eval_spec,
     figure,
-    main_for,
     make_tasks,
     reject,
     summary_rows,
 )
 from cml_edge.grid.planning import PLANNERS
-from cml_edge.plots import save_png
+from cml_edge.io.figures import save_png
 from cml_edge.protocol import EVAL_SEED
-from cml_edge.sweep import Task
 
 NAME = "obstacles"
 CLAIM = ("the paper's planner navigates 100-200 obstacles but degrades at 300-400, halting "
@@ -113,6 +111,3 @@ def _example(ax) -> None:
     ax.set_title("400 obstacles, seed 0: a pair the paper's planner fails")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0, -0.08))
 
-
-if __name__ == "__main__":
-    main_for(sys.modules[__name__])

@@ -1,4 +1,4 @@
-"""Monte Carlo over chips (issue 15): N independent chips through the protocol, and yield.
+"""Monte Carlo over chips: N independent chips through the protocol, and yield.
 
 A chip is the set of physical arrays a model runs on. What it fixes is the **chip seed**:
 the seed of the three arrays' device streams (``stream_key(chip, STREAM_DEVICE + index)``,
@@ -15,7 +15,7 @@ same model seeds, so chips differ only by the chip. A chip whose seed equals the
 seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
 ``--chips``). A float array draws nothing, so its chips are all the same.
 
-Each chip is one task of the sweep engine (:mod:`cml_edge.sweep`: local pool or Dask,
+Each chip is one task of the sweep engine (:mod:`cml_edge.engine.sweep`: local pool or Dask,
 resumable, one atomic file per chip), running :func:`cml_edge.grid.evaluation.run_protocol`
 for its chip seed. :func:`pool_chips` pools the per-chip summaries generically: every
 numeric key of the protocol's per-seed summaries (the success rate, e_pos, the
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
-from cml_edge.sweep import Task, run_sweep
 
 DEFAULT_YIELD_TARGET = 0.95
 CHIPS_FOLDER = Path("runs") / "chips"

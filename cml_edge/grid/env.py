@@ -1,15 +1,14 @@
 """Gymnasium adapters of the grid arena (paper 2.3), used by the DQN baseline.
 
 Needs the optional ``dqn`` extra (gymnasium); the core package never imports this module.
-Importing it registers two environments::
+``import cml_edge`` registers two environments (:data:`cml_edge.GYMNASIUM_ENVS`, as soon as
+Gymnasium is imported)::
 
+    import cml_edge
     import gymnasium as gym
-    import cml_edge.grid.env  # noqa: F401  (gymnasium 1.x does not auto-load plugins)
 
     env = gym.make("cml_edge/GridNav-v0", reward="tailored", goal=(20, 7))
     env = gym.make("cml_edge/GridNavGoal-v0")        # goal-conditioned
-
-or, without the explicit import, ``gym.make("cml_edge.grid.env:cml_edge/GridNav-v0")``.
 
 Dynamics, the same as the CML's arena (:mod:`cml_edge.grid.arena`):
 
@@ -213,13 +212,3 @@ class GridNavEnv(gym.Env):
             rows.append("".join(row))
         return "\n".join(rows) + "\n"
 
-
-def register_envs() -> None:
-    """Register the two ids (idempotent)."""
-    for env_id, kwargs in ((ENV_ID, {}), (GOAL_ENV_ID, {"goal_conditioned": True})):
-        if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="cml_edge.grid.env:GridNavEnv",
-                         kwargs=kwargs)
-
-
-register_envs()

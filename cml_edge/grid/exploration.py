@@ -32,8 +32,8 @@ from numba import njit
 
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, NTH_MOVE, POPCOUNT, GridArena
+from cml_edge.jit.rng import stream_key, uniform
 from cml_edge.protocol import STREAM_EXPLORE, STREAM_WALK_START
-from cml_edge.rng import stream_key, uniform
 
 EXPLORATIONS = ("random", "mixed")
 RANDOM, MIXED = 0, 1

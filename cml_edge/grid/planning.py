@@ -31,8 +31,8 @@ from cml_edge.core.step import FactoredScorer, SeamScorer, prepare, scores, wta
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena, available_moves, observe
 from cml_edge.grid.escape import WALL_NEXT, Escape, escape_choose, escape_reset
-from cml_edge.kernel import kernel
-from cml_edge.routing import routed
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.routing import routed
 
 PATHS = ("reference", "direct", "factored")
 PLANNERS = ("paper", "escape")
@@ -132,7 +132,7 @@ def decision_inputs(x, y, gx, gy, origin, scale, o, dgo):
 def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, max_steps,
               res):
     """Plan every (start, goal) pair (the module docstring), for any scorer and chooser. A
-    :func:`~cml_edge.kernel.kernel`: no decision pays reference counts."""
+    :func:`~cml_edge.jit.kernel.kernel`: no decision pays reference counts."""
     prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
     o, dgo, u, score, mask = res.work

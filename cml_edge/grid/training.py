@@ -53,8 +53,8 @@ from cml_edge.grid.exploration import (
     threshold,
     visit,
 )
-from cml_edge.kernel import allocates, kernel
-from cml_edge.rng import randint
+from cml_edge.jit.kernel import allocates, kernel
+from cml_edge.jit.rng import randint
 
 PATHS = ("reference", "direct", "factored")
 
@@ -126,7 +126,7 @@ def make_learner(cml: CML, path: str, defer: bool, size: int):
 @kernel
 def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
     """Walks w0..w1-1: the training of the module docstring, for any learner. A
-    :func:`~cml_edge.kernel.kernel`: no step pays reference counts."""
+    :func:`~cml_edge.jit.kernel.kernel`: no step pays reference counts."""
     free, masks, visited, n_visited, keys = (explorer.free, explorer.masks, explorer.visited,
                                              explorer.n_visited, explorer.keys)
     novelty, best = explorer.novelty, explorer.best

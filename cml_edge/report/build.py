@@ -24,10 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge import __version__, budget
+from cml_edge import __version__
 from cml_edge.backends import BACKENDS, report_systems
 from cml_edge.baselines import load_results
+from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.core.cml import CMLConfig
+from cml_edge.costs import dqn as dqn_costs
+from cml_edge.costs import ledger
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     Evaluation,
@@ -42,9 +45,8 @@ from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
 
 SCHEMA_VERSION = 2
-"""2: the scorecard, break points and recovery curves (issue 14)."""
+"""2: the scorecard, break points and recovery curves."""
 N_EXAMPLES = 3
-DQN_RESULTS = Path(__file__).resolve().parents[2] / "hw_reports" / "baselines" / "dqn_results.json"
 
 # (label, backend, options): the systems of the main table, as each device declares them
 SYSTEMS: list[tuple[str, str, dict[str, Any]]] = report_systems()
@@ -79,9 +81,9 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
     return {"example_paths": examples, "train_counters": run.train_counters,
             "plan_counters": run.eval_counters,
             "train_steps": config.walks * config.steps, "plan_steps": steps,
-            "train_wall_s": run.wall_s[-1], "technology": budget.technology(cml),
-            "memory": budget.cml_memory(cml, explore, 30),
-            "factored": budget.cml_factored_traffic(cml, config.walks, config.steps),
+            "train_wall_s": run.wall_s[-1], "technology": ledger.technology(cml),
+            "memory": ledger.cml_memory(cml, explore, 30),
+            "factored": ledger.cml_factored_traffic(cml, config.walks, config.steps),
             "parameters": cml.parameter_count(),
             "inference_flops_formula": cml.inference_flops()}
 
@@ -97,8 +99,8 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
     acc = run_protocol(backend, range(seeds), trials, epoch=1, **options)
     progress(f"{label}: operations")
     ops = measure_operations(backend, options)
-    e_train, e_sources = budget.energy_pj(ops["technology"], ops["train_counters"])
-    e_plan, _ = budget.energy_pj(ops["technology"], ops["plan_counters"])
+    e_train, e_sources = ledger.energy_pj(ops["technology"], ops["train_counters"])
+    e_plan, _ = ledger.energy_pj(ops["technology"], ops["plan_counters"])
     tc = ops["train_counters"]
     return {
         "label": label, "backend": backend, "options": options, "kind": "cml",
@@ -134,7 +136,7 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
 
 def counted_flops(macs: int, steps: int) -> float:
     """Counted FLOPs per planning step: two per multiply-accumulate."""
-    return budget.FLOPS_PER_MAC * macs / max(steps, 1)
+    return ledger.FLOPS_PER_MAC * macs / max(steps, 1)
 
 
 def steps_to_converge(curve: list[float], epoch_steps: int) -> int | None:
@@ -150,7 +152,7 @@ DQN_VARIANTS = (("DQN-simplified", "simplified", False), ("DQN-tailored", "tailo
                 ("DQN-goal-conditioned", "tailored", True))
 
 
-def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
+def dqn_rows(path: Path = RESULTS_PATH) -> tuple[list[dict[str, Any]], dict[str, Any] | None]:
     """The DQN baselines: the ledger from each network's real layer sizes and training
     settings, accuracy and times from the results file ``cml-edge dqn`` wrote, if any."""
     results = load_results(path)
@@ -159,19 +161,19 @@ def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, 
     for label, reward, goal_conditioned in DQN_VARIANTS:
         ev = next((e for e in evaluations if e["reward"] == reward
                    and e["goal_conditioned"] == goal_conditioned), {})
-        settings = budget.DQNSettings(n_in=4 if goal_conditioned else 2)
+        settings = dqn_costs.DQNSettings(n_in=4 if goal_conditioned else 2)
         steps = int(ev.get("train_steps", 100_000 if reward == "simplified" else 200_000))
-        traffic = budget.dqn_training_traffic(settings, steps)
-        energy, sources = budget.dqn_energy_pj(traffic)
-        mem = budget.dqn_memory(settings)
-        macs_per_action = budget.dqn_inference_flops(settings) / budget.FLOPS_PER_MAC
+        traffic = dqn_costs.dqn_training_traffic(settings, steps)
+        energy, sources = dqn_costs.dqn_energy_pj(traffic)
+        mem = dqn_costs.dqn_memory(settings)
+        macs_per_action = dqn_costs.dqn_inference_flops(settings) / ledger.FLOPS_PER_MAC
         rows.append({
             "label": label, "kind": "dqn",
             "pairs": "protocol" if goal_conditioned else "fixed goal per seed",
             **{k: ev.get(k) for k in ("seeds", "trials", "success_rate", "e_pos_mean",
                                       "e_pos_median", "overhead_mean", "overhead_median")},
-            "parameters": budget.dqn_parameter_count(settings),
-            "inference_flops_formula": budget.dqn_inference_flops(settings),
+            "parameters": dqn_costs.dqn_parameter_count(settings),
+            "inference_flops_formula": dqn_costs.dqn_inference_flops(settings),
             "inference_flops_counted": None,
             "weight_bits": 32, "parameter_bytes": mem["parameter_bytes"],
             "train_bytes_direct": mem["train_bytes"], "memory": mem,
@@ -181,7 +183,7 @@ def dqn_rows(path: Path = DQN_RESULTS) -> tuple[list[dict[str, Any]], dict[str, 
             / steps,
             "update_bytes_per_run_factored": None,
             "energy_per_run_uj": energy / 1e6,
-            "energy_per_action_nj": macs_per_action * budget.COSTS["fp32_mac"].pj / 1e3,
+            "energy_per_action_nj": macs_per_action * ledger.COSTS["fp32_mac"].pj / 1e3,
             "energy_sources": sources, "traffic": traffic,
             "train_wall_s": ev.get("train_wall_s_mean"),
             "steps_to_converge": (ev.get("convergence") or {}).get("step"),
@@ -195,7 +197,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                  progress: Callable[[str], None] = lambda m: None,
                  systems: list[tuple[str, str, dict[str, Any]]] | None = None,
                  sweeps: list[tuple[str, str, str, dict[str, Any]]] | None = None,
-                 dqn_results: str | Path = DQN_RESULTS,
+                 dqn_results: str | Path = RESULTS_PATH,
                  scorecard: ScorecardPlan | None = None) -> dict[str, Any]:
     """Everything the report shows, as one JSON-ready dict; the DQN's accuracy and times
     come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist.
@@ -232,7 +234,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                          "steps": v.get("steps")}
                      for k, v in (dqn_data or {}).get("runs", {}).items()},
         "sweeps": sweep_rows,
-        "costs": budget.costs_table(),
+        "costs": ledger.costs_table(),
         **card,
         "wall_time_s": time.perf_counter() - t0,
     }

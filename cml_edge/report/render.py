@@ -135,7 +135,7 @@ def _scorecard_markdown(report: dict[str, Any]) -> list[str]:
     rows, plan = report["scorecard"], report["scorecard_plan"]
     cols, devices = _columns(rows), _devices(rows)
     parts = [
-        "## The scorecard: every device on every scenario (issue 14)", "",
+        "## The scorecard: every device on every scenario", "",
         f"Each device runs each scenario (`cml-edge scenario NAME`) on {plan['seeds']} model "
         f"seeds at the `{plan['budget']}` budget; a column is one evaluation condition of a "
         "scenario (scenario: part). Success saturates on the easy conditions, so the "

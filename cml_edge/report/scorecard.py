@@ -1,4 +1,4 @@
-"""The scorecard of the report (issue 14): every device on every scenario, break points,
+"""The scorecard of the report: every device on every scenario, break points,
 recovery curves.
 
 Read top to bottom: :func:`build_scorecard` runs each scenario of

@@ -1,10 +1,10 @@
 """A Gymnasium environment of the continuous robot (paper 2.5, 3.5), for the DQN baseline.
 
 Needs gymnasium (the ``robot`` or ``dqn`` extra); the core package never imports this
-module. Importing it registers ``cml_edge/RobotNav-v0``::
+module. ``import cml_edge`` registers ``cml_edge/RobotNav-v0`` (:data:`cml_edge.GYMNASIUM_ENVS`)::
 
+    import cml_edge
     import gymnasium as gym
-    import cml_edge.robot.env  # noqa: F401
 
     env = gym.make("cml_edge/RobotNav-v0", observation="heading", goal_conditioned=True)
 
@@ -169,7 +169,3 @@ class RobotNavEnv(gym.Env):
         return (f"t={self.t} pose=({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) goal=({self.goal[0]:.2f}, "
                 f"{self.goal[1]:.2f}) distance={self._distance():.2f}")
 
-
-if ENV_ID not in gym.registry:
-    gym.register(id=ENV_ID, entry_point="cml_edge.robot.env:RobotNavEnv",
-                 max_episode_steps=None)

@@ -11,7 +11,7 @@ the backend, the robot config, the observation settings, the simulator and the t
 record) and each array's ``state_dict`` under ``m<i>/W_q/``, ``m<i>/W_k/``, ``m<i>/W_v/``.
 Loading checks all of it. Files are written under a temporary name and renamed.
 
-Protocol (issue 8): every model drives the robot from the base pose (2, 2) m facing the
+Protocol: every model drives the robot from the base pose (2, 2) m facing the
 centre (bottom left) to the same ``trials`` goals, drawn uniformly on [0.5, 29.5]^2 from
 the evaluation seed (123); a trial succeeds when the robot ends an action within 0.25 m
 of its goal, within 100 actions (``--stop step`` checks at every 32 ms simulation step
@@ -32,7 +32,9 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.model_file import cml_arrays, cml_from_arrays, read_npz
 from cml_edge.errors import InputError
+from cml_edge.io.files import atomic_write
 from cml_edge.robot.observation import RobotCMLSettings
 from cml_edge.robot.planning import (
     BASE_POSE,
@@ -44,7 +46,6 @@ from cml_edge.robot.planning import (
 )
 from cml_edge.robot.sim import SIMS, RobotConfig, RobotSim
 from cml_edge.robot.training import RobotTrainConfig, train_robot
-from cml_edge.storage import atomic_write, cml_arrays, cml_from_arrays, read_npz
 
 FORMAT = "cml-edge-robot-model"
 FORMAT_VERSION = 1
@@ -178,7 +179,7 @@ def plot_robot_runs(out: str | Path, config: RobotConfig, trails: list[np.ndarra
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cml_edge.plots import save_png
+    from cml_edge.io.figures import save_png
 
     fig, ax = plt.subplots(figsize=(6, 6))
     S = config.arena

@@ -28,9 +28,9 @@ from numba import njit
 from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import SeamScorer, prepare, scores, wta
 from cml_edge.errors import InputError
-from cml_edge.kernel import kernel
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import stream_key, uniform
 from cml_edge.protocol import STREAM_ROBOT_GOALS
-from cml_edge.rng import stream_key, uniform
 from cml_edge.robot.observation import XY, RobotCMLSettings, observe, observe_goal
 from cml_edge.robot.sim import (
     N_ROBOT_ACTIONS,
@@ -107,7 +107,7 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
               stop_each_step, sub, work, res):
     """Drive every (start, goal) (the module docstring), for any scorer and simulator;
     ``sub`` ((steps per action + 1, 3)) receives each action's simulation steps, ``work``
-    is :func:`drive_work`'s. A :func:`~cml_edge.kernel.kernel`: no decision pays
+    is :func:`drive_work`'s. A :func:`~cml_edge.jit.kernel.kernel`: no decision pays
     reference counts."""
     n_i = 2 if frame.mode == XY else 4
     prepare(scorer, normalize, False)

@@ -52,7 +52,7 @@ from numba import njit
 
 from cml_edge.core.records import Record
 from cml_edge.errors import InputError
-from cml_edge.routing import routed
+from cml_edge.jit.routing import routed
 
 N_ROBOT_ACTIONS = 8
 
@@ -258,7 +258,7 @@ class Kinematics(NamedTuple):
 @njit(cache=True, inline="always")
 def set_pose(dst, src):
     """dst[:] = src for a pose (x, y, theta), element by element: an array copied into a
-    slice allocates a temporary, which the loops, kernels (:mod:`cml_edge.kernel`), cannot."""
+    slice allocates a temporary, which the loops, kernels (:mod:`cml_edge.jit.kernel`), cannot."""
     for i in range(3):
         dst[i] = src[i]
 

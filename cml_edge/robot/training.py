@@ -29,9 +29,9 @@ from cml_edge.core.cml import CML
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
 from cml_edge.errors import InputError
-from cml_edge.kernel import kernel
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import stream_key, uniform
 from cml_edge.protocol import STREAM_ROBOT_EXPLORE, STREAM_ROBOT_START
-from cml_edge.rng import stream_key, uniform
 from cml_edge.robot.observation import XY, RobotCMLSettings, observe
 from cml_edge.robot.sim import (
     N_ROBOT_ACTIONS,
@@ -92,7 +92,7 @@ def walk_work(n_i: int) -> tuple:
 def train_loop(learner, sim, frame, keys, lo, hi, w0, w1, steps, errors, o_sq, work):
     """Walks w0..w1-1 (the module docstring): the mean training error of each walk in
     ``errors`` and its mean |o_{t+1}|^2 in ``o_sq``; ``work`` from :func:`walk_work`. A
-    :func:`~cml_edge.kernel.kernel`: no step pays reference counts."""
+    :func:`~cml_edge.jit.kernel.kernel`: no step pays reference counts."""
     n_i = 2 if frame.mode == XY else 4
     start, pose, new, o_t, o_1, mask, nopath = work
     for w in range(w0, w1):

@@ -1,4 +1,4 @@
-"""Scenarios (issue 14): named, documented, seeded workloads that tell devices apart.
+"""Scenarios: named, documented, seeded workloads that tell devices apart.
 
 ``SCENARIOS`` (:mod:`cml_edge.scenarios.registry`) holds the eight scenarios as data;
 :func:`run_scenario` (:mod:`cml_edge.scenarios.runner`) runs one on any device through

@@ -1,4 +1,4 @@
-"""The eight scenarios of issue 14 as data: what each trains, how it evaluates, and why.
+"""The eight scenarios as data: what each trains, how it evaluates, and why.
 
 A scenario is a list of **runs**. A run is one training (a world, an arena, a schedule,
 the budget's walks and steps) and the **parts** that evaluate it: a part is one
@@ -168,7 +168,7 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              "5, 10, 20 self-supervised walks of in-situ relearning (schedule step, the "
              "seed's walk streams continued), planning after each K. Reports success "
              "against K and what the relearning cost on the device (pulses, cells written, "
-             "energy from the arrays' counters and the energy model of budget.py), beside "
+             "energy from the arrays' counters and the energy model of cml_edge.costs), beside "
              "an estimate of what a DQN would need to retrain (``dqn_retrain``).",
              "grid", "recovery"),
 )}

@@ -1,8 +1,8 @@
 """Run a scenario on a device through the sweep engine, and pool its seeds.
 
-:func:`run_scenario` makes one :class:`~cml_edge.sweep.Task` per (run x seed) of the
+:func:`run_scenario` makes one :class:`~cml_edge.engine.sweep.Task` per (run x seed) of the
 scenario (:mod:`cml_edge.scenarios.registry`; task key ``RUN-sSEED``), runs them with
-:func:`cml_edge.sweep.run_sweep` (in-process, a local pool or Dask; each result written
+:func:`cml_edge.engine.sweep.run_sweep` (in-process, a local pool or Dask; each result written
 atomically to ``OUT/tasks/``, a rerun into the same ``out`` resumes) and pools each part
 over the seeds:
 
@@ -15,9 +15,9 @@ over the seeds:
 - for relearning parts, ``pulses``, ``writes`` and ``energy_uJ`` (seed means and
   spreads) of the relearning walks.
 
-The recovery scenario adds ``dqn_retrain`` (:mod:`cml_edge.scenarios.dqn_cost`).
+The recovery scenario adds ``dqn_retrain`` (:mod:`cml_edge.costs.dqn`).
 
-**Many chips** (``chips``, issue 15; :mod:`cml_edge.grid.chips`): every (run x seed) runs
+**Many chips** (``chips``; :mod:`cml_edge.grid.chips`): every (run x seed) runs
 on each chip seed ``first_chip`` .. ``first_chip + chips - 1`` (task key
 ``RUN-cCHIP-sSEED``, so a rerun resumes, and a run without chips keeps its keys
 ``RUN-sSEED`` and its JSON). The part's keys above are then pooled over all chips x seeds
@@ -44,12 +44,12 @@ from cml_edge import __version__
 from cml_edge.backends import backend_spec
 from cml_edge.core.cml import CML
 from cml_edge.core.fidelity import TWIN, pool_seeds, seed_stats
+from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
 from cml_edge.experiments.common import pool
 from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips, pool_chips
+from cml_edge.io.files import atomic_write_text
 from cml_edge.scenarios.registry import BUDGETS, get
-from cml_edge.storage import atomic_write_text
-from cml_edge.sweep import Task, run_sweep
 
 TASK_FNS = {"grid": "cml_edge.scenarios.tasks:grid_task",
             "robot": "cml_edge.scenarios.tasks:robot_task"}
@@ -206,7 +206,7 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     if chip_seeds is not None:
         result["chip_seeds"] = chip_seeds
     if name == "recovery":
-        from cml_edge.scenarios.dqn_cost import dqn_retrain_estimate
+        from cml_edge.costs.dqn import dqn_retrain_estimate
 
         result["dqn_retrain"] = dqn_retrain_estimate()
     result.update({"wall_time_s": time.perf_counter() - t0, "command": command,

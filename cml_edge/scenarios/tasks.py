@@ -18,7 +18,7 @@ streams, :func:`cml_edge.grid.training.train`'s ``first_walk``) on the aged copy
 parts of one age share it, relearning cumulatively in increasing K, and the twin is
 trained on the same extra walks. Its ``relearn`` record holds what the relearning cost
 the arrays: the counters' difference, pulses, cells written and energy
-(:func:`cml_edge.budget.energy_pj`).
+(:func:`cml_edge.costs.ledger.energy_pj`).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.budget import TECHNOLOGIES, energy_pj, technology
 from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.costs.ledger import TECHNOLOGIES, energy_pj, technology
 from cml_edge.experiments.common import _eval_setting
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import Evaluation, Training, train_seed

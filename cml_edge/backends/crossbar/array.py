@@ -35,8 +35,8 @@ from cml_edge.backends.crossbar.config import (
 )
 from cml_edge.backends.params import record_names, record_to_array
 from cml_edge.errors import InputError
+from cml_edge.jit.rng import stream_key
 from cml_edge.protocol import STREAM_DEVICE
-from cml_edge.rng import stream_key
 
 
 class CrossbarState(NamedTuple):
@@ -186,7 +186,7 @@ class CrossbarArray(SynapticArray):
         the record is rebuilt from the saved options and the saved w_max, and the old
         vector must equal that record's legacy view, or the file is refused."""
         if "__params__" in d or "params" not in d:
-            return _upgrade_issue12(d)
+            return _upgrade_calibrated(d)
         old = np.asarray(d["params"])
         if old.dtype != np.float64 or old.shape != (len(LEGACY_PARAMS),):
             raise InputError(f"field 'params' has shape {old.shape}, expected "
@@ -197,7 +197,7 @@ class CrossbarArray(SynapticArray):
         record = crossbar_params(make_config(preset, **options), slots["w_max"])
         if not np.array_equal(legacy_params(record, slots["alpha"], slots["elapsed"]), old):
             raise InputError("crossbar parameters do not match the saved options")
-        return _upgrade_issue12(
+        return _upgrade_calibrated(
             {**d, "params": record_to_array(record), "__params__": record_names(record),
              "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])})
 
@@ -250,9 +250,10 @@ def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
 
 
 def saved_options(options: dict[str, Any]) -> dict[str, Any]:
-    """Saved options with every field added by issue 12 that they lack at its default (off):
-    a file saved before those fields restores with the physics it was saved with, not with
-    what its preset names now (``pcm`` then is ``pcm-symmetric`` now)."""
+    """Saved options with every calibrated-physics field (:data:`NEW_FIELDS`) that they
+    lack at its default (off): a file saved before those fields restores with the physics
+    it was saved with, not with what its preset names now (``pcm`` then is
+    ``pcm-symmetric`` now)."""
     options = dict(options)
     defaults = DeviceConfig()
     for name in NEW_FIELDS:
@@ -260,11 +261,11 @@ def saved_options(options: dict[str, Any]) -> dict[str, Any]:
     return options
 
 
-def _upgrade_issue12(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """A state saved before issue 12: the parameter record gains the new fields (from the
-    completed options, with the saved w_max; the saved fields must agree), the new state
-    arrays start at their neutral values (no bound spread, no noise offsets) and the new
-    counters at 0."""
+def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A state saved before the calibrated-physics fields: the parameter record gains the
+    new fields (from the completed options, with the saved w_max; the saved fields must
+    agree), the new state arrays start at their neutral values (no bound spread, no noise
+    offsets) and the new counters at 0."""
     if "params" not in d or "__params__" not in d or "__options__" not in d:
         return d
     if "Gp" not in d or "counters" not in d or np.asarray(d["Gp"]).ndim != 2:

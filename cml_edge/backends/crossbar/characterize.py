@@ -6,7 +6,7 @@ Everything is measured on the project's own arrays, through the kernels training
 by ``xbar_commit`` with one pulse's worth in the accumulator. Statistics are over the
 G+ device of each pair (its partner is at g_min on a one-sided pair, mirrored on a
 two-sided one). Nothing here evaluates a formula of the model: the tests compare these
-measurements with the formulas (``tests/test_device_physics.py``).
+measurements with the formulas (``tests/backends/crossbar/test_crossbar_physics.py``).
 
 - ``programming``: per target, the mean and std of the programmed conductance;
 - ``drift``: per target and time t, E[G(t)] / E[G(0)] (G(0) as programmed) and the
@@ -179,7 +179,7 @@ def plot(result: dict[str, Any], path: Any) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cml_edge.storage import atomic_write
+    from cml_edge.io.files import atomic_write
 
     fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
     prog = result["programming"]

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 
-from cml_edge.kernel import kernel
+from cml_edge.jit.kernel import kernel
 
 
 @kernel

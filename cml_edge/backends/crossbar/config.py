@@ -184,7 +184,7 @@ class DeviceConfig:
     """Global drift compensation: one output scale per array, from a calibration read
     (sum |G+ - G-|) before and after the drift."""
 
-    # calibrated device physics (issue 12). Every field below is off at its default, so
+    # calibrated device physics. Every field below is off at its default, so
     # a config that does not name it behaves, draw for draw, as before these fields
     # existed; a file saved before them restores with these defaults, whatever its
     # preset says now (array.py, ``_restore``). -------------------------------------
@@ -393,8 +393,9 @@ NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower"
               "rn1f_qmax", "rn1f_t_read", "drift_nu_g", "nu_a", "nu_b", "nu_lo", "nu_hi",
               "nu_sa", "nu_sb", "nu_slo", "nu_shi", "compensation_read", "bound_management",
               "bm_passes")
-"""The fields added by issue 12. A state saved before them has none in its options: it
-restores with their defaults (every one off), not with its preset's present values."""
+"""The calibrated-physics fields, added after the first releases. A state saved before
+them has none in its options: it restores with their defaults (every one off), not with
+its preset's present values."""
 
 
 def _validate(c: DeviceConfig) -> None:
@@ -452,7 +453,7 @@ PCM_PULSE_GAIN = 3.2
 mean device (nominal bounds) from g_min to 90 % of the range, in units of dG: 56 pulses
 take it from 0 to 22.5 uS (``kernels.set_pulses``), 22.5 / 56 / 0.125 = 3.2. With the
 device-to-device spread of the upper bound, ``cml-edge device characterize`` counts more
-(README, issue 12 figures)."""
+(docs/devices/crossbar.md)."""
 
 _DEVICE = dict(update="pulsed", commit="pulse", dac_bits=7, adc_bits=9, adc_bound=12.0,
                w_max_v=0.02)

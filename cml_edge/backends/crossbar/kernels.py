@@ -47,7 +47,7 @@ going up, 2 (G - g_min) / (g_max - g_min) going down. Every write clips a device
 [g_min, g_max]; stuck devices never change. Only devices actually pulsed or
 programmed are written (and get write noise); a write restarts the device's drift clock.
 
-Calibrated physics (issue 12; each off at its config default, and then the code paths
+Calibrated physics (each off at its config default, and then the code paths
 and draws above are exactly those of earlier releases): a ``one-sided`` mapping programs
 one device of a pair to g_min; a ``set_only`` pair sends each pulse to one device, up (G+
 to raise w, G- to lower it), and a ``refresh`` pair that saturates is RESET and its
@@ -65,7 +65,7 @@ after its pair's pulses; at construction, the bounds after the programming noise
 before G-), then the calibration read after.
 
 Randomness: one counter-based stream per array, ``uniform(rng[0], c)`` from
-:mod:`cml_edge.rng` at the counter c = ``rng[1]``, advanced by one per uniform
+:mod:`cml_edge.jit.rng` at the counter c = ``rng[1]``, advanced by one per uniform
 drawn. Normal deviates come from those uniforms by the Marsaglia-Tsang ziggurat (256
 layers; exact, and ~8x cheaper than the Box-Muller ``rng.normal`` that a read would
 otherwise spend most of its time in). A long read computes the ziggurat's fast path for
@@ -92,9 +92,9 @@ from cml_edge.backends.crossbar.config import (
     UPDATES,
 )
 from cml_edge.backends.quant import max_abs
-from cml_edge.kernel import kernel
-from cml_edge.rng import uniform, unit, word
-from cml_edge.simd import band_sums, lane_sums
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import uniform, unit, word
+from cml_edge.jit.simd import band_sums, lane_sums
 
 # choice codes of the parameter record (the index of the value in the config's choices)
 UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
@@ -271,10 +271,10 @@ def _mac(Gp, Gm, xs, buf, transposed, nz, nnz):
 
     W x sums each output over the columns of the nonzero inputs, in order. With at most
     :data:`BAND_ROWS` rows (W_k's 8), the rows are summed as vector lanes
-    (:func:`cml_edge.simd.band_sums`: the same operations in the same order); otherwise as
+    (:func:`cml_edge.jit.simd.band_sums`: the same operations in the same order); otherwise as
     one axpy per driven column, found from the DAC's masks ``nz`` when there are few
     (``nnz``, :data:`SPARSE_READ`). W^T y sums each output in eight interleaved partial
-    sums (:func:`cml_edge.simd.lane_sums`), then the rows left over, then the eight."""
+    sums (:func:`cml_edge.jit.simd.lane_sums`), then the rows left over, then the eight."""
     rows, cols = Gp.shape
     if not transposed and rows <= BAND_ROWS and Gp.strides[0] == 8 and Gm.strides[0] == 8:
         i0 = 0
@@ -313,7 +313,7 @@ def _mac(Gp, Gm, xs, buf, transposed, nz, nnz):
     for o in range(cols):  # W^T y: one reduction per column, eight partial sums
         s0 = s1 = s2 = s3 = s4 = s5 = s6 = s7 = 0.0
         k = 0
-        if lanes:  # the eight sums as vector lanes (cml_edge.simd.lane_sums), same order
+        if lanes:  # the eight sums as vector lanes (cml_edge.jit.simd.lane_sums), same order
             k = rows - rows % 8
             s0, s1, s2, s3, s4, s5, s6, s7 = lane_sums(Gp, Gm, xs, o, k)
         while k + 8 <= rows:
@@ -369,8 +369,8 @@ def _add_noise(buf, var, n_out, inv_g, sigma, wn, rng, zc, masks):
     :func:`normal_at` from the stream's counter on, s_o = sigma, or sqrt(sigma^2 +
     wn^2 var[o]) when wn > 0 (PCM_READ); advances the counter past the draws.
 
-    The same draws at the same counters as calling :func:`normal_at` output after output
-    (issue 15), but faster for a long read: :func:`_fast_candidates` takes the fast path
+    The same draws at the same counters as calling :func:`normal_at` output after output,
+    but faster for a long read: :func:`_fast_candidates` takes the fast path
     of up to ``zc.shape[0]`` words in one vectorised pass; the outputs then take the
     candidates run by run up to each rejected word, whose slow path (and the words it
     consumes) continues the draws at the counter it leaves, and the rest of the read, if
@@ -468,7 +468,7 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, bits, rng, alpha, counters, P, x, out, trans
     bound management's re-reads), counted as a read of ``kind`` (a counter index; -1: a
     calibration read, counted by its caller). The state's arrays come as arguments (issue
     15: compiled with reference counting, reading them from the state tuple paid their
-    counts at every read; a :func:`~cml_edge.kernel.kernel` pays none)."""
+    counts at every read; a :func:`~cml_edge.jit.kernel.kernel` pays none)."""
     if kind >= 0:
         counters[kind] += 1
     rows, cols = Gp.shape
@@ -645,7 +645,7 @@ def _written(age, rn, nu, nu_z, P, d, i, j, g):
     its accumulated read noise is gone, its drift exponent follows g (``drift_nu_g``).
 
     The write kernels take the state's arrays as arguments, read from the state once per
-    kernel (issue 15: compiled with reference counting, a ``state.field`` inside a loop
+    kernel (compiled with reference counting, a ``state.field`` inside a loop
     paid them on every pass and the per-walk commit was 5x slower)."""
     age[d, i, j] = 0.0
     if P.rn1f > 0.0:

@@ -1,4 +1,4 @@
-"""The Loihi-style fixed-point synaptic array (issue 3): ``int8``, ``int16``, ``fixed``.
+"""The Loihi-style fixed-point synaptic array: ``int8``, ``int16``, ``fixed``.
 
 Weights are signed integer mantissas of ``bits`` bits (2..16) in the narrowest
 NumPy integer type, with one power-of-two exponent per matrix; reads are integer
@@ -41,8 +41,8 @@ from cml_edge.backends.quant import (
     storage_dtype,
 )
 from cml_edge.errors import InputError
+from cml_edge.jit.rng import stream_key
 from cml_edge.protocol import STREAM_DEVICE
-from cml_edge.rng import stream_key
 
 
 class FixedState(NamedTuple):

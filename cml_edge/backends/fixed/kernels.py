@@ -73,8 +73,8 @@ from cml_edge.backends.quant import (
     sigmoid_lut,
 )
 from cml_edge.errors import InputError
-from cml_edge.kernel import kernel
-from cml_edge.rng import uniform, word
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import uniform, word
 
 # counter indices (names in FixedArray.counter_names)
 MATVECS, RMATVECS, MACS, WEIGHT_READS, OUTER_UPDATES, UPDATE_MACS = 0, 1, 2, 3, 4, 5
@@ -141,7 +141,7 @@ def _read(m, p, xq, sums, c, x, out, transposed):
     """out = W x (W^T x if ``transposed``): the input quantised, the exact integer MAC,
     the sums emitted. The state's arrays come one by one (one statement in the seam's
     kernels: reading them from the state inside the inlined step costs their reference
-    counts, issue 15)."""
+    counts)."""
     rows, cols = m.shape
     if transposed:
         e = quantize_vector(x, rows, p.act_qmax, xq)
@@ -205,7 +205,7 @@ def _exact_line(line, limit, fa, factors, nk, count_changed):
     factor is 0 keeps its value with no select, as no cell is ever beyond +-limit
     (validated on load, clipped at every write). Returns (changed if ``count_changed``
     else 0, saturated); LLVM compiles the loop twice on the flag, so a caller that needs
-    no change count pays none (issue 15: 0.50 -> 0.32 ns per cell in a throwaway loop,
+    no change count pays none (0.50 -> 0.32 ns per cell in a throwaway loop,
     without the per-cell touched count, the select and the change count)."""
     changed = 0
     sats = 0
@@ -226,7 +226,7 @@ PROBE = 32
 1 in ``RANKED_SHARE`` of its first ``PROBE`` products have a fraction, else in
 :func:`_ordered_line`. The ranked line costs about the same at every share, the ordered
 one a branch per drawing product; both make the same draws, so the choice moves no bit
-(issue 15: in throwaway loops, the ordered line 1.24 ns per cell at a 15 % share and 1.99
+(in throwaway loops, the ordered line 1.24 ns per cell at a 15 % share and 1.99
 at 50 %, the ranked one 1.31 at any share)."""
 
 
@@ -333,7 +333,7 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally, coun
     pk = np.int64(k) if k > 0 else np.int64(0)
     two_k = pow2(pk) if pk <= 62 else 0.0
     half = (np.int64(1) << (pk - 1)) if 0 < pk <= 62 else np.int64(0)
-    if pk == 0 and not big:  # exact products: nothing to round or draw (issue 15)
+    if pk == 0 and not big:  # exact products: nothing to round or draw
         if cols <= NARROW:
             for a in range(cols):
                 if cq[a] != 0:
@@ -347,7 +347,7 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally, coun
                     changed += c
                     sats += s
         written = touched  # a nonzero exact product is a nonzero change
-    elif mode == STOCHASTIC and 0 < pk <= 62:  # (issue 15)
+    elif mode == STOCHASTIC and 0 < pk <= 62:
         if cols <= NARROW:
             for a in range(cols):
                 if cq[a] != 0:

@@ -1,4 +1,4 @@
-"""The ``loihi2`` synaptic array (issue 13): Loihi 2 as Intel's Lava models it, bit for bit.
+"""The ``loihi2`` synaptic array: Loihi 2 as Intel's Lava models it, bit for bit.
 
 Programming a float matrix W (:meth:`Loihi2Array.from_float`):
 
@@ -54,8 +54,8 @@ from cml_edge.backends.loihi2.lava import (
 )
 from cml_edge.backends.quant import check_int
 from cml_edge.errors import InputError
+from cml_edge.jit.rng import stream_key
 from cml_edge.protocol import STREAM_DEVICE
-from cml_edge.rng import stream_key
 
 
 class Loihi2State(NamedTuple):

@@ -4,7 +4,7 @@ Every option is a parameter Lava's ``Dense`` / ``LearningDense`` and ``LoihiLear
 take (``num_message_bits``, ``num_weight_bits``, ``weight_exp``, ``sign_mode``,
 ``t_epoch``) or a choice this emulation makes where Lava is silent (the stochastic
 rounding draws, the payload scale, strict mode), each documented under its field. The
-ranges are the chip's as the project fixes them (issue 13): ``num_weight_bits`` 1..8
+ranges are the chip's as the project fixes them: ``num_weight_bits`` 1..8
 (Lava: ``W_WEIGHTS_U`` = 8), ``weight_exp`` -8..7 (Lava's Python checks no range;
 nengo-loihi's Loihi 1 synapse scale 2^(6 + weight_exp) with this range), and
 ``num_message_bits`` 1..24 (Lava's graded networks and adapters use 24; no documented hard

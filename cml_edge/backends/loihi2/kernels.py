@@ -98,8 +98,8 @@ from cml_edge.backends.quant import (
     quantize_vector,
 )
 from cml_edge.errors import InputError
-from cml_edge.kernel import kernel
-from cml_edge.rng import uniform
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import uniform
 
 # counter indices (names in Loihi2Array.counter_names)
 MATVECS, RMATVECS, MACS, WEIGHT_READS, NEURON_WRAPS, OUTER_UPDATES = 0, 1, 2, 3, 4, 5
@@ -167,7 +167,7 @@ def quantize_at(x, n, e, out):
 def l1_exponent(x, n, l1_max):
     """exponent_for(sum |x[:n]|, l1_max), the sum taken in index order.
 
-    That sum is a chain of n dependent additions (issue 15), so eight running sums go
+    That sum is a chain of n dependent additions, so eight running sums go
     first. Both sums are within (n + 8) 2^-53 of sum |x| relative to it (non-negative
     terms: n - 1 roundings in order; at most n / 8 + 10 in a running sum and the
     combination), so the index-order sum lies well within 4 (n + 8) 2^-53 of the
@@ -451,7 +451,7 @@ def end_epoch(state):
 def _term_line(line, mf, factors, k, clip):
     """line[b] += the engine's term of (mf factors[b]) (:func:`engine_term`,
     :func:`accumulate`) where factors[b] != 0, the other cells kept: written without
-    branches so that it vectorises (issue 15). A zero term keeps the cell with no select,
+    branches so that it vectorises. A zero term keeps the cell with no select,
     as no cell is ever beyond the accumulator's range (validated on load, clipped at every
     write; 0.58 -> 0.44 ns per cell in a throwaway loop). ``clip``: whether a term may
     leave the accumulator's range (:func:`_terms_may_clip`); when none can, LLVM's copy

@@ -5,7 +5,7 @@ with the functions of ``src/lava/utils/weightutils.py``. This module does the sa
 arithmetic in our own code, so that the ``loihi2`` array programs exactly the integers,
 ``num_weight_bits`` and ``weight_exp`` Lava would give, without Lava (it does not install
 on Python 3.11 and is no dependency). Each function names the Lava function it follows;
-``tests/test_loihi2.py`` holds them to golden values read from Lava's own tests.
+``tests/backends/loihi2/test_loihi2.py`` holds them to golden values read from Lava's own tests.
 
 Sign modes are Lava's ``SignMode`` (a plain ``Enum``: NULL 0, MIXED 1, EXCITATORY 2,
 INHIBITORY 3); here they are the strings of :data:`SIGN_MODES` and their integer codes

@@ -43,7 +43,7 @@ from cml_edge.cml import CML, CMLConfig  # noqa: E402
 from cml_edge.training import TrainConfig, train  # noqa: E402
 
 from cml_edge.cli import main  # noqa: E402
-from cml_edge.storage import load_model, save_model  # noqa: E402
+from cml_edge.core.model_file import load_model, save_model  # noqa: E402
 
 ARGS = ["--arena", "10", "--walks", "2", "--steps", "50", "--seed", "1"]
 CLI_CASES = {"float32": ["--backend", "float32"], "int8": ["--backend", "int8"]}

@@ -1,0 +1,2 @@
+"""``cml-edge bench``: the timing of the compiled loops (:mod:`~cml_edge.bench.timing`)
+against a hand-fused yardstick (:mod:`~cml_edge.bench.fused`)."""

@@ -1,0 +1,103 @@
+"""Model files: the format of a saved CML.
+
+A model is one ``.npz`` (no pickles) holding ``format`` ("cml-edge-model"),
+``format_version``, ``meta`` (JSON: the CML config, the backend, how it was
+trained) and each array's ``state_dict`` under ``W_q/``, ``W_k/``, ``W_v/``.
+Loading checks all of it and raises :class:`ModelFileError` with one line naming
+what is wrong. Files are written atomically (:func:`cml_edge.io.files.atomic_write`).
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cml_edge.backends import array_from_state_dict
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.errors import InputError
+from cml_edge.io.files import atomic_write
+
+FORMAT = "cml-edge-model"
+FORMAT_VERSION = 1
+MATRICES = ("W_q", "W_k", "W_v")
+
+
+class ModelFileError(InputError):
+    """A model file that is missing, corrupted, foreign or of another version."""
+
+
+def cml_arrays(cml: CML, prefix: str = "") -> dict[str, np.ndarray]:
+    """Each array's ``state_dict`` under ``<prefix>W_q/``, ``<prefix>W_k/``, ``<prefix>W_v/``."""
+    return {f"{prefix}{name}/{k}": v for name, arr in zip(MATRICES, cml.arrays)
+            for k, v in arr.state_dict().items()}
+
+
+def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str,
+                    prefix: str = "") -> CML:
+    """The CML stored by :func:`cml_arrays` under ``prefix``; InputError (or KeyError) when
+    an array is missing or malformed or holds a non-finite weight."""
+    arrays = []
+    for name in MATRICES:
+        head = f"{prefix}{name}/"
+        arrays.append(array_from_state_dict({k[len(head):]: v for k, v in data.items()
+                                             if k.startswith(head)}))
+    cml = CML(config, tuple(arrays), backend)
+    for name, arr in zip(MATRICES, cml.arrays):
+        if not np.all(np.isfinite(arr.to_float())):
+            raise InputError(f"{prefix}{name} holds non-finite weights")
+    return cml
+
+
+def read_npz(path: str | Path, fmt: str, version: int, error: type[InputError],
+             foreign: dict[str, str] | None = None) -> dict[str, np.ndarray]:
+    """The arrays of the ``.npz`` file ``path`` after checking that it exists, reads, and
+    carries format ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign``
+    gives for a known other format."""
+    name = str(path)
+    if Path(path).is_dir():
+        raise error(f"model file {name!r} is a folder, not a file")
+    if not Path(path).is_file():
+        raise error(f"model file {name!r} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise error(f"{name!r} is not a readable .npz model file ({exc})") from None
+    found = str(data.get("format", ""))
+    if found != fmt:
+        hint = (foreign or {}).get(found, "")
+        raise error(f"{name!r} is not a {fmt.replace('-model', '')} model (no format "
+                    f"{fmt!r}){hint}")
+    stored = data.get("format_version")
+    if stored is None or int(stored) != version:
+        raise error(f"{name!r} has {fmt} format version {stored}, this cml-edge reads "
+                    f"version {version}")
+    return data
+
+
+def save_model(path: str | Path, cml: CML, training: dict[str, Any]) -> None:
+    """Save ``cml`` with the record of how it was trained (``training``, JSON-able)."""
+    arrays: dict[str, np.ndarray] = {
+        "format": np.array(FORMAT),
+        "format_version": np.array(FORMAT_VERSION),
+        "meta": np.array(json.dumps({"config": cml.config.to_dict(), "backend": cml.backend,
+                                     "training": training}, sort_keys=True)),
+        **cml_arrays(cml),
+    }
+    atomic_write(path, lambda f: np.savez(f, **arrays))
+
+
+def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
+    """Load and validate a model file; returns the CML and its training record."""
+    data = read_npz(path, FORMAT, FORMAT_VERSION, ModelFileError,
+                    {"cml-edge-robot-model": " (a robot model: use cml-edge robot evaluate)"})
+    try:
+        meta = json.loads(str(data["meta"]))
+        cml = cml_from_arrays(data, CMLConfig.from_dict(meta["config"]), meta["backend"])
+    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
+        raise ModelFileError(f"{str(path)!r} is a corrupted model file: {exc}") from None
+    return cml, meta.get("training", {})

@@ -1,0 +1,37 @@
+"""Grid figures: an arena with a planned path (like the paper's Figure 6)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from cml_edge.grid.arena import GridArena
+from cml_edge.io.figures import pyplot, save_png
+
+
+def plot_navigation(path: str | Path, arena: GridArena, trajectory: np.ndarray, start, goal,
+                    title: str | None = None) -> None:
+    """PNG of the arena, its obstacles, start (cross), goal (star) and the path taken."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5, 5))
+    n = arena.size
+    ax.set_xlim(-0.5, n - 0.5)
+    ax.set_ylim(-0.5, n - 0.5)
+    ax.set_aspect("equal")
+    ax.set_xticks(np.arange(-0.5, n, 1), minor=True)
+    ax.set_yticks(np.arange(-0.5, n, 1), minor=True)
+    ax.grid(which="minor", color="0.92", linewidth=0.5)
+    ox, oy = np.nonzero(arena.blocked)
+    if len(ox):
+        ax.scatter(ox, oy, marker="s", s=max(4.0, 2500.0 / n), color="0.25", label="obstacle")
+    ax.plot(trajectory[:, 0], trajectory[:, 1], "-o", color="tab:blue", markersize=3,
+            linewidth=1.5, label=f"path ({len(trajectory) - 1} steps)")
+    ax.plot(*start, "x", color="tab:red", markersize=12, mew=3, label="start")
+    ax.plot(*goal, "*", color="tab:green", markersize=16, label="goal")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_title(title or f"CML navigation, {n} x {n} arena")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
+    save_png(fig, path)
+    plt.close(fig)

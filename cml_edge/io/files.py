@@ -1,0 +1,74 @@
+"""Files cml-edge writes: path checks before any work, and atomic writes.
+
+Every file cml-edge writes goes to a temporary name in the target folder and is renamed
+into place, so an interrupted write leaves no half file. :func:`writable_file` and
+:func:`writable_folder` check an output path up front, so a bad one is refused before
+any work is done.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO
+
+from cml_edge.errors import InputError
+
+
+def writable_file(path: str | Path, what: str = "output file") -> Path:
+    """``path`` as a file cml-edge may write (its missing folders are made when it is
+    written); InputError naming ``what`` when it is a folder or lies under a file."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {str(path)!r} is a folder (allowed: a file name)")
+    _under_folders(path, what)
+    return path
+
+
+def writable_folder(path: str | Path, what: str = "output folder") -> Path:
+    """``path`` as a folder cml-edge may write into (made when missing); InputError naming
+    ``what`` when it is a file or lies under one."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{what} {str(path)!r} is a file (allowed: a folder)")
+    _under_folders(path, what)
+    return path
+
+
+def _under_folders(path: Path, what: str) -> None:
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise InputError(f"{what} {str(path)!r} lies under {str(parent)!r}, which "
+                                 f"is a file, not a folder")
+            return
+
+
+def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
+    """Call ``write(file)`` on a temporary file beside ``path``, then rename it into place
+    (:func:`writable_file` checks ``path`` first)."""
+    path = writable_file(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give what open() would
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    atomic_write(path, lambda f: f.write(text.encode()))

@@ -1,0 +1,656 @@
+"""The ``loihi2`` array: Lava's arithmetic at every boundary, bit for bit.
+
+Golden values come from Lava's own tests and from Lava's source read step by step (lava-nc
+at b6822fbc: ``utils/weightutils.py``, ``proc/dense/models.py``, ``proc/lif/models.py``,
+``magma/core/learning/``); where a golden is ours, the comment works it out by hand.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from cml_edge.backends import array_from_state_dict, make_array
+from cml_edge.backends.loihi2 import kernels as kern
+from cml_edge.backends.loihi2 import lava
+from cml_edge.backends.loihi2.array import Loihi2Array
+from cml_edge.backends.loihi2.config import payload_l1_max
+from cml_edge.backends.quant import SaturationError, exponent_for
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.costs import ledger
+from cml_edge.errors import InputError
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
+from cml_edge.jit.rng import stream_key, uniform
+from cml_edge.protocol import STREAM_DEVICE
+
+FAST = settings(max_examples=40, deadline=None)
+
+
+def program(ints, **options):
+    """An array whose standard 8-bit integers are ``ints`` (mixed: W = ints 2^-8, so the
+    float map's scale is 2^8 when max |ints| lies in 64..127)."""
+    W = np.ldexp(np.atleast_2d(np.asarray(ints, dtype=np.float64)), -8)
+    return Loihi2Array.from_float(W, seed=options.pop("seed", 0),
+                                  index=options.pop("index", 0), **options)
+
+
+# Lava's weight utilities ----------------------------------------------------------------------
+@pytest.mark.parametrize(("W", "mode", "exp", "nb", "msb", "mant"), [
+    ([10, 10, 10], "excitatory", -4, 3, [160, 160, 160], [5, 5, 5]),  # Lava test
+    ([0, 0], "excitatory", 0, 0, [0, 0], [0, 0]),  # Lava test: all zero
+    ([-100, 50, 0, 127], "mixed", -1, 8, [-200, 100, 0, 254], [-100, 50, 0, 127]),
+    ([-1, 1], "mixed", -7, 2, [-128, 128], [-1, 1]),  # lava-dl #304: scaled up
+    ([3, -6, 12], "mixed", -4, 5, [48, -96, 192], [3, -6, 12]),
+    ([-3, -6], "inhibitory", -5, 3, [-96, -192], [-3, -6]),
+    ([1], "excitatory", -7, 1, [128], [1]),
+    ([[0.3, -0.1], [0.2, 0.0]], "mixed", -9, 0, [[0, 0], [0, 0]], [[0, 0], [0, 0]]),
+])
+def test_optimize_weight_bits_golden(W, mode, exp, nb, msb, mant):
+    W = np.array(W, dtype=float)
+    plain = lava.optimize_weight_bits(W, mode)
+    assert (plain.weight_exp, plain.num_weight_bits) == (exp, nb)
+    assert plain.weights.tolist() == msb
+    assert lava.optimize_weight_bits(W, mode, loihi2=True).weights.tolist() == mant
+
+
+def test_optimize_weight_bits_edges_as_lava():
+    # odd mixed weights at full range: 9 bits, which loihi2=True refuses (negative shift)
+    odd = lava.optimize_weight_bits(np.array([-256.0, 1.0]), "mixed")
+    assert (odd.weight_exp, odd.num_weight_bits) == (0, 9)
+    with pytest.raises(ValueError, match="negative shift"):
+        lava.optimize_weight_bits(np.array([-256.0, 1.0]), "mixed", loihi2=True)
+    # a mixed maximum past 254: exponent +1 and all zeros (lava-dl #170)
+    top = lava.optimize_weight_bits(np.array([255.0, -3.0]), "mixed")
+    assert (top.weight_exp, top.num_weight_bits, top.weights.tolist()) == (1, 10, [0, 0])
+    with pytest.raises(ValueError, match="between -256 and 255"):
+        lava.optimize_weight_bits(np.array([256.0]), "mixed")
+    with pytest.raises(ValueError, match="between 0 and 255"):
+        lava.optimize_weight_bits(np.array([-1.0]), "excitatory")
+
+
+@pytest.mark.parametrize(("W", "mode", "nb", "want"), [  # Lava's test_weightutils.py
+    ([252, 253, 253, 254, 255], "excitatory", 7, [252, 252, 252, 254, 254]),
+    ([-255, -254, -253, -252, -251], "inhibitory", 7, [-254, -254, -252, -252, -250]),
+    ([-256, -255, -254, 253, 254, 255], "mixed", 8, [-256, -256, -254, 252, 254, 254]),
+    ([-256, -255, -254, 253, 254, 255], "mixed", 7, [-256, -256, -256, 252, 252, 252]),
+])
+def test_truncate_weights_golden(W, mode, nb, want):
+    assert lava.truncate_weights(np.array(W), mode, nb).tolist() == want
+
+
+@pytest.mark.parametrize(("W", "mode", "nb", "want"), [  # Lava's Dense model tests
+    ([0.5, 300, 40], "excitatory", 8, [0, 255, 40]),
+    ([300, -300, 39], "mixed", 8, [254, -256, 38]),
+    ([300, -300, 39], "mixed", 7, [252, -256, 36]),
+])
+def test_dense_first_step_clip_then_truncate(W, mode, nb, want):
+    got = lava.truncate_weights(lava.clip_weights(np.array(W), mode), mode, nb)
+    assert got.tolist() == want
+
+
+def test_sign_modes_and_limits():
+    assert lava.SIGN_MODE_CODES == {"mixed": 1, "excitatory": 2, "inhibitory": 3}
+    assert lava.weight_limits("mixed") == (-256, 255)
+    assert lava.weight_limits("excitatory") == (0, 255)
+    assert lava.weight_limits("inhibitory") == (-255, 0)
+    assert lava.determine_sign_mode(np.zeros(3)) == "excitatory"
+    assert lava.determine_sign_mode(np.array([-1.0, 0.0])) == "inhibitory"
+    assert lava.determine_sign_mode(np.array([-1.0, 1.0])) == "mixed"
+    with pytest.raises(ValueError, match="unknown sign mode 'null'"):
+        lava.weight_limits("null")
+
+
+# programming ---------------------------------------------------------------------------------
+def test_programming_gives_lavas_integers_and_drops_the_mixed_lsb():
+    arr = program([-100, 50, 0, 127])
+    p = arr.state.params
+    # float scale 2^8 (2^9 would put 127/256 at 254 > 127); optimize: exp -1, 8 bits
+    assert (p.exp, p.scale_exp, p.nb, p.shift) == (-1, 8, 8, 1)
+    assert arr.state.w.tolist() == [[-200, 100, 0, 254]]
+    assert arr.mantissa.tolist() == [[-100, 50, 0, 127]]
+    assert np.array_equal(arr.to_float(), np.ldexp(np.array([[-100.0, 50, 0, 127]]), -8))
+    # 7 bits: truncate_weights drops 2 bits (floor): 254 -> 252; mantissas 7-bit
+    seven = program([-100, 50, 0, 127], num_weight_bits=7)
+    assert seven.state.w.tolist() == [[-200, 100, 0, 252]]
+    assert seven.mantissa.tolist() == [[-50, 25, 0, 63]]
+    assert seven.weight_bits() == 7
+
+
+def test_fixed_weight_exponent_keeps_integers_and_moves_the_scale():
+    base = program([-100, 50, 0, 127])
+    for e in (-8, 7):
+        arr = program([-100, 50, 0, 127], weight_exp=e)
+        assert arr.state.w.tolist() == base.state.w.tolist()
+        assert (arr.exponent, arr.scale_exp) == (e, 8 + e + 1)
+        assert np.array_equal(arr.to_float(), base.to_float())
+    assert [program([1, 2], weight_exp=[-3, -2, -1], index=i).exponent for i in range(3)] == \
+        [-3, -2, -1]
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"num_weight_bits": 9}, "num_weight_bits 9 is not allowed (allowed: integers 1..8)"),
+    ({"num_weight_bits": 0}, "num_weight_bits 0 is not allowed (allowed: integers 1..8)"),
+    ({"weight_exp": -9}, "weight_exp -9 is not allowed (allowed: integers -8..7)"),
+    ({"weight_exp": 8}, "weight_exp 8 is not allowed (allowed: integers -8..7)"),
+    ({"num_message_bits": 25}, "num_message_bits 25 is not allowed (allowed: integers 1..24)"),
+    ({"num_message_bits": 0}, "num_message_bits 0 is not allowed (allowed: integers 1..24)"),
+    ({"sign_mode": "null"}, "sign_mode 'null' is not allowed (allowed: mixed, excitatory, "
+                            "inhibitory)"),
+    ({"t_epoch": 64}, "t_epoch 64 is not allowed (allowed: integers 1..63)"),
+    ({"draws": "per-row"}, "draws 'per-row' is not allowed (allowed: shared, independent)"),
+])
+def test_options_outside_the_chip_are_refused(options, message):
+    with pytest.raises(InputError) as err:
+        make_array("loihi2", np.ones((2, 2)), seed=0, index=0, **options)
+    assert message in str(err.value)
+
+
+def test_excitatory_and_inhibitory_clip_the_wrong_sign_counted():
+    W = np.array([[0.5, -0.25, 0.125]])
+    exc = Loihi2Array.from_float(W, sign_mode="excitatory")
+    # [0, 255]: 0.5 2^9 = 256 > 255, so S = 8: [128, 0, 32]; optimize: exp 0, 8 - 5 = 3 bits
+    assert exc.state.w.tolist() == [[128, 0, 32]] and exc.counters["program_clips"] == 1
+    assert (exc.exponent, exc.weight_bits(), exc.mantissa.tolist()) == (0, 3, [[4, 0, 1]])
+    inh = Loihi2Array.from_float(W, sign_mode="inhibitory")
+    # [-255, 0]: -0.25 2^10 = -256 < -255, so S = 9: [0, -128, 0]; exp 0, 8 - 7 = 1 bit
+    assert inh.state.w.tolist() == [[0, -128, 0]] and inh.counters["program_clips"] == 2
+    assert (inh.exponent, inh.weight_bits(), inh.to_float()[0, 1]) == (0, 1, -0.25)
+    with pytest.raises(InputError, match="do not fit sign mode excitatory"):
+        Loihi2Array.from_float(W, sign_mode="excitatory", strict=True)
+
+
+# reads ----------------------------------------------------------------------------------------
+def test_matvec_golden_exact():
+    # w = [[-200, 100], [254, 2]], E = -1, S = 8; x = [1, 0.5]: safe payloads at 2^-9
+    # (L1 768 <= 1023; 2^-10 gives 1536), sums -76800 and 130560, >> 1, << 6
+    arr = program([[-100, 50], [127, 1]])
+    out = arr.matvec(np.array([1.0, 0.5]))
+    assert out.tolist() == [-0.29296875, 0.498046875]  # = W x exactly
+    assert out.tolist() == (arr.to_float() @ [1.0, 0.5]).tolist()
+    assert arr.counters["macs"] == 4 and arr.counters["bits_read"] == 4 * 9
+    y = np.array([0.25, -1.0])
+    assert np.array_equal(arr.rmatvec(y), arr.to_float().T @ y)
+    arr.matvec(np.array([0.0, 2.0]))
+    assert arr.counters["macs"] == 4 + 4 + 2  # a zero payload costs nothing
+
+
+def test_read_floor_and_24_bit_neuron_input_golden():
+    # Dense floors the sum by -weight_exp; the neuron adds it << 6 to its 24-bit u
+    assert kern.neuron_input(-3, -1) == (-128, 0)  # -3 >> 1 = -2
+    assert kern.neuron_input(3, -1) == (64, 0)
+    # PyLifModelBitAcc goldens (du = 4095): a_in = 2^17 keeps u = 2^23; 2^17 + 1 wraps;
+    # -2^17 gives -2^23, which Lava wraps to +2^23
+    assert kern.neuron_input(2**17, 0) == (2**23, 0)
+    assert kern.neuron_input(2**17 + 1, 0) == (-8388544, 1)
+    assert kern.neuron_input(-(2**17), 0) == (2**23, 1)
+    assert kern.neuron_input(5 * 2**17, 0) == (2**23, 1)  # modulo 2^24
+    assert kern.wrap24(-(2**23) + 1) == (-(2**23) + 1, 0)
+
+
+def test_full_payloads_overflow_the_neuron_input_counted_and_strict_raises():
+    # w = 254, E = -1; x = 1 at 24 bits: payload 2^22, sum 254 2^22 >> 1 << 6 wraps
+    arr = program([[127]], payload_scale="full")
+    out = arr.matvec(np.array([1.0]))
+    d = ((254 * 2**22) >> 1) << 6
+    u = ((d + 2**23 - 1) % 2**24) - 2**23 + 1
+    assert out[0] == u * 2.0 ** (-22 - 8 - 6) and arr.counters["neuron_wraps"] == 1
+    safe = program([[127]])
+    assert safe.matvec(np.array([1.0]))[0] == 127 / 256 and safe.counters["neuron_wraps"] == 0
+    strict = program([[127]], payload_scale="full", strict=True)
+    with pytest.raises(SaturationError, match="24-bit"):
+        strict.matvec(np.array([1.0]))
+    # 8-bit payloads fit: 254 x 127 x 64 / 2 < 2^23
+    eight = program([[127]], payload_scale="full", num_message_bits=8)
+    assert eight.matvec(np.array([1.0]))[0] == 127 / 256
+
+
+@given(st.lists(st.integers(-256, 255), min_size=6, max_size=6),
+       st.lists(st.floats(-1e3, 1e3), min_size=3, max_size=3),
+       st.integers(1, 24), st.integers(-8, 7))
+@FAST
+def test_safe_reads_never_overflow(ws, xs, bits, exp):
+    arr = Loihi2Array.from_float(np.zeros((2, 3)), num_message_bits=bits, weight_exp=exp,
+                                 scale_exp=0)
+    arr.state.w[:] = np.array(ws).reshape(2, 3)
+    arr.matvec(np.array(xs))
+    arr.rmatvec(np.array(xs[:2]))
+    assert arr.counters["neuron_wraps"] == 0
+    assert payload_l1_max(exp) * 256 * 2.0 ** (exp + 6) < 2**23
+
+
+def test_message_bits_limit_the_payloads():
+    arr = program([[127, 1]], num_message_bits=8, payload_scale="full")
+    # x = [1, 0.3]: 8-bit payloads at 2^-6: [64, 19]
+    out = arr.matvec(np.array([1.0, 0.3]))
+    assert out[0] == ((254 * 64 + 2 * 19) >> 1) * 2.0 ** (-6 - 8)
+    one = program([[127, 1]], num_message_bits=1)  # a signed 1-bit payload holds only 0
+    assert one.matvec(np.array([1.0, 0.3])).tolist() == [0.0]
+
+
+def test_sigmoid_table_and_payload_bits():
+    arr = program([[1]])
+    g = arr.sigmoid(np.array([0.0, 100.0, -100.0]))
+    assert g[0] == 0.5 and 0.9996 < g[1] < 1.0 and 0.0 < g[2] < 0.0004
+    eight = program([[1]], num_message_bits=8)
+    g8 = eight.sigmoid(np.array([0.0, 1.0, 100.0]))
+    assert g8.tolist() == [0.5, 187 / 256, 255 / 256]  # entries 32768, 47911, 65512 >> 8
+    with pytest.raises(ValueError, match="non-finite"):
+        arr.sigmoid(np.array([np.nan]))
+
+
+# the learning engine ------------------------------------------------------------------------
+def test_rule_literal_and_engine_terms_golden():
+    assert kern.lr_literal(0.001) == (4, -12)  # 0.000977, Lava float_to_literal's value
+    assert kern.lr_literal(0.25) == (4, -4)
+    assert kern.lr_literal(0.9375) == (4, -2)  # 7.5 x 2^-3 ties to 8 x 2^-3 = 1
+    assert kern.lr_literal(-0.001) == (-4, -12)
+    assert kern.lr_literal(0.0) == (0, 0)
+    # Lava's "x1*y1*y0" with x1 = y1 = 10: (100 >> 3) << 7 = 1536 (12 weight units)
+    assert kern.engine_term(1, 10, 10, 7) == (1536, 0)
+    # negative terms floor away from zero: the engine's bias
+    assert kern.engine_term(4, 1, 1, 0) == (0, 0)
+    assert kern.engine_term(-4, 1, 1, 0) == (-1, 0)
+    # the term clip at 2^15 - 1 and -(2^15) - 1; a shift of 16 saturates whatever it is
+    assert kern.engine_term(7, 127, 127, 2) == (32767, 1)
+    assert kern.engine_term(-7, 127, 127, 2) == (-32769, 1)
+    assert kern.engine_term(1, 8, 1, 16) == (32767, 1)
+
+
+def test_accumulator_and_write_back_golden():
+    r1, r2 = 0.29849114, 0.81422574  # Lava's first two shared draws (seed 2)
+    mixed = (kern.MIXED, -256, 255)
+    # w0 = 10, "2^-2*x1*y0", x1 = 3: 1280 + 96 = 1376 = 10.75
+    assert kern.write_back(1376, r1, *mixed) == (11, 0, 0)
+    assert kern.write_back(1376, r2, *mixed) == (10, 0, 0)
+    # w0 = 10, "-2^-3*y1*x0", y1 = 3: 1232 = 9.625
+    assert kern.write_back(1232, r1, *mixed)[0] == 10 and kern.write_back(1232, r2, *mixed)[0] == 9
+    # w0 = -250, "-2^2*y1*x0", y1 = 10: -32000 - 5120 clips at -32769, then -256
+    assert kern.accumulate(-32000, -5120) == (-32769, 1)
+    assert kern.write_back(-32769, 0.999, *mixed) == (-256, 0, 1)  # -257 clipped
+    assert kern.write_back(-32769, 0.5, *mixed) == (-256, 0, 0)
+    # w0 = 250, "x1*y0", x1 = 100: 32000 + 12800 clips at 32767 = 255.99, 256, then 255
+    assert kern.accumulate(32000, 12800) == (32767, 1)
+    assert kern.write_back(32767, r1, *mixed) == (255, 0, 1)
+    # w0 = 2 excitatory, "-y1*x0", y1 = 5: 256 - 640 < 0 saturates to 0 by sign mode
+    assert kern.write_back(-384, r1, kern.EXCITATORY, 0, 255) == (0, 1, 0)
+    assert kern.write_back(384, r1, kern.INHIBITORY, -255, 0) == (0, 1, 0)
+
+
+def fractional_case(seed=0, **options):
+    """w = [-200, 100, 254], LSB 2^-9; lr 2^-12, post [1], pre [1, 0.5, 0.25]: the rule's
+    exponent would be -7, so the traces are formed 7 bits coarser (pre's 4 zero bits, then
+    post's 3): X = [4, 2, 1], Y = 8, and the terms (4 X 8) >> 3 = [16, 8, 4] units of 2^-7,
+    exactly the float update [0.125, 0.0625, 0.03125] LSB."""
+    arr = program([-100, 50, 127], seed=seed, index=2, **options)
+    return arr, np.array([1.0]), np.array([1.0, 0.5, 0.25]), 2.0**-12
+
+
+def test_shared_draw_golden():
+    for seed in range(6):
+        arr, post, pre, lr = fractional_case(seed)
+        for _ in range(3):
+            arr.outer_update(post, pre, lr, defer=True)
+        assert (arr.state.acc - arr.state.w * 128).tolist() == [[48, 24, 12]]
+        assert np.array_equal(arr.pending_float(), np.ldexp(np.array([[48.0, 24, 12]]), -16))
+        arr.commit()
+        r = uniform(stream_key(seed, STREAM_DEVICE + 2), 0)
+        up = [int(r * 128 < f) for f in (48, 24, 12)]
+        assert arr.state.w.tolist() == [[-200 + up[0], 100 + up[1], 254 + up[2]]]
+        assert arr.counters["rng_draws"] == 1 and int(arr.state.rng[1]) == 1
+        assert arr.counters["epochs"] == 1 and arr.counters["update_macs"] == 9
+        assert (arr.state.acc == arr.state.w.astype(np.int32) * 128).all()
+
+
+def test_independent_draws_golden():
+    arr, post, pre, lr = fractional_case(3, draws="independent")
+    arr.outer_update(post, pre, lr, defer=False)  # t_epoch 1: written back now
+    key = stream_key(3, STREAM_DEVICE + 2)
+    up = [int(uniform(key, j) * 128 < f) for j, f in enumerate((16, 8, 4))]
+    assert arr.state.w.tolist() == [[-200 + up[0], 100 + up[1], 254 + up[2]]]
+    assert arr.counters["rng_draws"] == 3 and int(arr.state.rng[1]) == 3
+
+
+def test_t_epoch_writes_back_every_t_updates():
+    arr, post, pre, lr = fractional_case(1, t_epoch=3)
+    w0 = arr.state.w.copy()
+    arr.outer_update(post, 64 * pre, lr, defer=False)  # 64 x: whole LSBs [1, 0.5 ...]
+    arr.outer_update(post, 64 * pre, lr, defer=False)
+    assert np.array_equal(arr.state.w, w0) and arr.counters["epochs"] == 0
+    arr.outer_update(post, 64 * pre, lr, defer=False)
+    assert arr.counters["epochs"] == 1 and int(arr.state.epoch[0]) == 0
+    # 3 x [8, 4, 2] LSB; 254 x 128 + 256 passes 32767: the accumulator clips (counted)
+    assert arr.state.w.tolist() == [[-200 + 24, 100 + 12, 255]]
+    assert arr.counters["acc_saturations"] == 3
+
+
+def test_sub_unit_terms_vanish_or_floor_to_minus_one():
+    """Terms below one accumulator unit: positive ones vanish, negative ones floor to -1
+    (the engine's bias); ``terms=exact`` rounds them stochastically instead."""
+    arr, post, pre, _ = fractional_case(0)
+    lr = 2.0**-15  # 1/8 of the case: float terms [2, 1, 0.5] units; traces X = [4, 2, 1],
+    arr.outer_update(post, pre, lr, defer=True)  # Y = 1 (10 bits coarser): 4 X >> 3
+    assert (arr.state.acc - arr.state.w * 128).tolist() == [[2, 1, 0]]
+    neg, *_ = fractional_case(0)
+    neg.outer_update(-post, pre, lr, defer=True)
+    assert (neg.state.acc - neg.state.w * 128).tolist() == [[-2, -1, -1]]
+    exact, *_ = fractional_case(0, terms="exact")
+    for _ in range(64):
+        exact.outer_update(post, pre, lr, defer=True)
+    pending = exact.state.acc - exact.state.w * 128
+    assert pending[0, :2].tolist() == [128, 64] and 16 < pending[0, 2] < 48  # ~32
+    assert exact.counters["rng_draws"] == 64  # a draw for each fractional term
+
+
+def test_strict_mode_raises_on_accumulator_saturation():
+    arr = program([[127]], strict=True)
+    with pytest.raises(SaturationError, match="accumulator"):
+        arr.outer_update(np.array([1.0]), np.array([1.0]), 1.0, defer=True)
+
+
+@st.composite
+def engine_case(draw):
+    rows = draw(st.integers(1, 6))
+    cols = draw(st.sampled_from([1, 3, 8, 20]))
+    ints = np.array(draw(st.lists(st.integers(-128, 127), min_size=rows * cols,
+                                  max_size=rows * cols))).reshape(rows, cols)
+    ints[0, 0] = 127
+    mode = draw(st.sampled_from(lava.SIGN_MODES))
+    options = {"sign_mode": mode, "draws": draw(st.sampled_from(["shared", "independent"])),
+               "t_epoch": draw(st.integers(1, 3)), "terms": draw(st.sampled_from(
+                   ["engine", "exact"]))}
+    arr = Loihi2Array.from_float(np.ldexp(ints.astype(float), draw(st.integers(-12, 4))),
+                                 seed=draw(st.integers(0, 99)), index=1, **options)
+    n = draw(st.integers(1, 5))
+    steps = []
+    for _ in range(n):
+        post = np.array(draw(st.lists(st.sampled_from([0.0, 1.0, -0.5, 0.3, -1e-4, 7.0]),
+                                      min_size=rows, max_size=rows)))
+        pre = np.array(draw(st.lists(st.sampled_from([0.0, 1.0, -0.25, 0.7, 1e-3, -3.0]),
+                                     min_size=cols, max_size=cols)))
+        lr = draw(st.sampled_from([0.0, 0.001, 0.05, 1.0, -0.01]))
+        steps.append((post, pre, lr, draw(st.booleans())))
+    return arr, steps
+
+
+@given(engine_case())
+@FAST
+def test_learning_never_leaves_the_format(case):
+    arr, steps = case
+    p = arr.state.params
+    for post, pre, lr, defer in steps:
+        arr.outer_update(post, pre, lr, defer)
+        acc = arr.state.acc.astype(np.int64)
+        assert acc.min() >= kern.ACC_MIN and acc.max() <= kern.ACC_MAX
+        assert p.w_min <= arr.state.w.min() and arr.state.w.max() <= p.w_max
+    arr.commit()
+    w = arr.state.w.astype(np.int64)
+    assert p.w_min <= w.min() and w.max() <= p.w_max
+    assert np.array_equal(arr.state.acc, w * 128)  # no sub-LSB state survives an epoch
+    assert arr.state.w.dtype == np.int16 and arr.state.acc.dtype == np.int32
+
+
+@given(engine_case())
+@FAST
+def test_a_zero_update_never_changes_a_weight(case):
+    arr, steps = case
+    w0 = arr.state.w.copy()
+    zero_rows = np.ones(arr.shape[0], bool)
+    zero_cols = np.ones(arr.shape[1], bool)
+    for post, pre, lr, defer in steps:
+        arr.outer_update(post, pre, lr, defer)
+        if lr != 0:
+            zero_rows &= post == 0
+            zero_cols &= pre == 0
+        arr.outer_update(post, pre, 0.0, defer)  # lr 0: nothing, whatever the draws
+    arr.commit()
+    assert np.array_equal(arr.state.w[zero_rows], w0[zero_rows])
+    assert np.array_equal(arr.state.w[:, zero_cols], w0[:, zero_cols])
+
+
+@given(engine_case())
+@FAST
+def test_with_the_shared_draw_all_synapses_of_an_epoch_round_the_same_way(case):
+    """One r per epoch: a synapse rounds up iff r 2^7 < its fraction, so every synapse
+    with a larger fraction than one that rounded up rounds up too."""
+    arr, steps = case
+    if arr.options()["draws"] != "shared":
+        arr = Loihi2Array.from_float(arr.to_float(), index=1, seed=7,
+                                     **{**arr.options(), "draws": "shared"})
+    for post, pre, lr, _ in steps:
+        arr.outer_update(post, pre, lr, True)
+    acc = arr.state.acc.astype(np.int64)
+    if arr.options()["sign_mode"] == "excitatory":
+        acc = np.maximum(acc, 0)
+    elif arr.options()["sign_mode"] == "inhibitory":
+        acc = np.minimum(acc, 0)
+    frac, floor = acc & 127, acc >> 7
+    arr.commit()
+    up = arr.state.w.astype(np.int64) - floor
+    p = arr.state.params
+    inside = (floor + 1 <= p.w_max) & (floor >= p.w_min) & (frac > 0)
+    ups, downs = frac[inside & (up == 1)], frac[inside & (up == 0)]
+    assert set(np.unique(up[inside])) <= {0, 1}
+    if ups.size and downs.size:
+        assert downs.max() < ups.min()
+    r = uniform(arr.state.rng[0], int(arr.state.rng[1]) - 1)
+    assert np.array_equal(up[inside] == 1, r * 128 < frac[inside])
+
+
+# persistence and export ------------------------------------------------------------------------
+def test_state_dict_round_trip_and_corruption():
+    arr, post, pre, lr = fractional_case(2, t_epoch=3)
+    arr.outer_update(post, pre, lr, defer=False)
+    back = array_from_state_dict(arr.state_dict())
+    assert back.options() == arr.options()
+    assert all(np.array_equal(np.asarray(a), np.asarray(b))
+               for a, b in zip(arr.state, back.state))
+    d = arr.state_dict()
+    d["w"] = d["w"].copy()
+    d["w"][0, 0] = -257
+    with pytest.raises(ValueError, match="beyond the range"):
+        array_from_state_dict(d)
+    d = arr.state_dict()
+    d["epoch"] = np.array([3])
+    with pytest.raises(ValueError, match="beyond t_epoch"):
+        array_from_state_dict(d)
+
+
+def lava_dense_read(exported, x, e):
+    """Lava's bit-accurate Dense, re-stated from its source: clip_weights and
+    truncate_weights at the first step, the integer dot product, the shift by weight_exp."""
+    mode = {1: "mixed", 2: "excitatory", 3: "inhibitory"}[exported["sign_mode"]]
+    W = lava.truncate_weights(lava.clip_weights(exported["weights"], mode), mode,
+                              exported["num_weight_bits"])
+    s = np.rint(np.ldexp(x, -e)).astype(np.int64)
+    acc = W.astype(np.int64) @ s
+    a = acc >> -exported["weight_exp"] if exported["weight_exp"] < 0 else \
+        acc << exported["weight_exp"]
+    return np.ldexp(a.astype(float), e - exported["scale_exp"])
+
+
+def test_to_lava_reproduces_the_reads_in_lavas_dense():
+    W = np.random.default_rng(3).normal(0, 0.1, (8, 20))
+    arr = make_array("loihi2", W, seed=0, index=1)
+    d = arr.to_lava()
+    assert (d["weight_exp"], d["num_weight_bits"], d["sign_mode"], d["num_message_bits"]) == \
+        (-1, 8, 1, 24)
+    assert d["lsb_truncated"] == 0 and (d["weights"] % 2 == 0).all()
+    W_int = np.rint(np.ldexp(W, lava.float_scale(W, "mixed")))
+    assert np.array_equal(d["mantissa"], lava.optimize_weight_bits(W_int, "mixed",
+                                                                   loihi2=True).weights)
+    x = np.random.default_rng(4).uniform(-1, 1, 20)
+    out = arr.matvec(x)
+    e = int(np.ceil(np.log2(np.abs(x).sum() / payload_l1_max(-1))))  # the safe scale
+    s = np.rint(np.ldexp(x, -e))
+    if np.abs(s).sum() > payload_l1_max(-1):
+        e += 1
+    assert np.array_equal(out, lava_dense_read(d, x, e))
+
+
+def test_budget_and_parameter_bytes():
+    cml = CML.create(CMLConfig(), "loihi2", seed=0)
+    assert ledger.technology(cml) == "loihi2"
+    assert [a.weight_bits() for a in cml.arrays] == [8, 8, 8]
+    assert sum(a.parameter_bytes for a in cml.arrays) == 4608
+    assert cml.W_q.accumulator_bits() == 16
+    energy, sources = ledger.energy_pj("loihi2", {"macs": 10, "update_macs": 0})
+    assert energy == pytest.approx(2.3) and "int8" in sources[0]
+
+
+# the CML on the array ---------------------------------------------------------------------
+@pytest.mark.parametrize(("options", "schedule"), [
+    ({}, "walk"),
+    ({"draws": "independent", "t_epoch": 3, "num_message_bits": 8}, "step"),
+    ({"payload_scale": "full", "num_message_bits": 16, "terms": "exact"}, "walk"),
+])
+def test_reference_and_compiled_paths_agree_bit_for_bit(options, schedule):
+    arena = GridArena.empty(12)
+    config = CMLConfig.for_arena(12)
+    tc = TrainConfig(2, 40, "mixed", schedule)
+    ref = CML.create(config, "loihi2", seed=5, **options)
+    fast = CML.create(config, "loihi2", seed=5, **options)
+    e_ref = train(ref, arena, tc, seed=5, path="reference")
+    e_fast = train(fast, arena, tc, seed=5, path="direct")
+    assert np.array_equal(e_ref, e_fast)
+    for a, b in zip(ref.arrays, fast.arrays):
+        for f, x, y in zip(a.State._fields, a.state, b.state):
+            if f not in ("xq", "yq", "sums", "tally"):
+                assert np.array_equal(np.asarray(x), np.asarray(y)), f
+    pairs = draw_pairs(arena, 6, 9)
+    p_ref = plan(ref, arena, pairs.starts, pairs.goals, max_steps=30, path="reference")
+    p_fast = plan(fast, arena, pairs.starts, pairs.goals, max_steps=30, path="direct")
+    assert np.array_equal(p_ref.paths, p_fast.paths)
+    assert ref.counters() == fast.counters()
+
+
+def test_same_seed_same_bits_other_seed_other_bits():
+    runs = []
+    for seed in (1, 1, 2):
+        cml = CML.create(CMLConfig.for_arena(8), "loihi2", seed=0)
+        train(cml, GridArena.empty(8), TrainConfig(1, 60), seed=seed, path="reference")
+        runs.append(np.concatenate([a.state.w.ravel() for a in cml.arrays]))
+    assert np.array_equal(runs[0], runs[1]) and not np.array_equal(runs[0], runs[2])
+
+
+# command line ------------------------------------------------------------------------------
+SMALL = ["--arena", "8", "--walks", "2", "--steps", "30"]
+
+
+def test_export_writes_lava_dense_parameters(cli, tmp_path):
+    model = tmp_path / "m.npz"
+    code, _, err = cli("train", "--backend", "loihi2", "--message-bits", "16", *SMALL,
+                       "--path", "reference", "--out", model)
+    assert code == 0, err
+    code, out, err = cli("export", model, "--format", "lava", "--out", tmp_path / "lava",
+                         "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    assert len(result["files"]) == 7
+    from cml_edge.core.model_file import load_model
+
+    cml, _ = load_model(model)
+    for name, arr in zip(("W_q", "W_k", "W_v"), cml.arrays):
+        want = arr.to_lava()
+        with np.load(tmp_path / "lava" / f"{name}.npz") as z:
+            for k, v in want.items():
+                assert np.array_equal(z[k], v), (name, k)
+        desc = json.loads((tmp_path / "lava" / f"{name}.json").read_text())
+        assert desc["dense"]["num_message_bits"] == 16 and desc["dense"]["sign_mode"] == 1
+        assert "Dense(weights=" in desc["build"] and "SignMode(1)" in desc["build"]
+        assert desc["dense"]["weight_exp"] == want["weight_exp"]
+    assert "transposed_read" in json.loads((tmp_path / "lava" / "W_v.json").read_text())
+    index = json.loads((tmp_path / "lava" / "lava.json").read_text())
+    assert [m["matrix"] for m in index["matrices"]] == ["W_q", "W_k", "W_v"]
+
+
+def test_export_refuses_other_models_and_formats(cli, tmp_path):
+    model = tmp_path / "f.npz"
+    assert cli("train", "--backend", "int8", *SMALL, "--out", model)[0] == 0
+    code, _, err = cli("export", model, "--format", "lava", "--out", tmp_path / "x")
+    assert code == 2 and err.count("\n") == 1
+    assert "holds fixed arrays (backend int8)" in err and "loihi2 models only" in err
+    assert not (tmp_path / "x").exists()
+    code, _, err = cli("export", model, "--format", "onnx", "--out", tmp_path / "x")
+    assert code == 2 and "invalid choice: 'onnx'" in err
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--weight-bits", "9"], "num_weight_bits 9 is not allowed (allowed: integers 1..8)"),
+    (["--weight-exp", "-9"], "weight_exp -9 is not allowed (allowed: integers -8..7)"),
+    (["--message-bits", "25"], "num_message_bits 25 is not allowed (allowed: integers 1..24)"),
+    (["--sign-mode", "null"], "sign_mode 'null' is not allowed"),
+    (["--set", "t_epoch=0"], "t_epoch 0 is not allowed (allowed: integers 1..63)"),
+])
+def test_bad_chip_options_are_one_line_exit_2(cli, tmp_path, flags, message):
+    code, out, err = cli("emulate", "--backend", "loihi2", *flags, "--seeds", "1",
+                         "--out", tmp_path / "r.json")
+    assert code == 2 and message in err and err.count("\n") == 1 and out == ""
+    assert not (tmp_path / "r.json").exists()
+
+
+def _l1_in_order(x, l1_max):
+    total = 0.0
+    for v in x:
+        total += abs(float(v))
+    return exponent_for(total, l1_max)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-1e6, 1e6, allow_subnormal=True), min_size=1, max_size=300),
+       st.sampled_from([1, 127, 1023, 4095, 2 ** 20 - 1]))
+def test_l1_exponent_is_that_of_the_sum_in_index_order(xs, l1_max):
+    """The eight-lane L1 exponent is the exponent of the index-order sum, for
+    any vector, and where the sum sits on an exponent's boundary to within a few ulps
+    (there the two sums can fall on either side of it, and the kernel must see that)."""
+    x = np.array(xs)
+    assume(np.abs(x).sum() > 0)
+    assert kern.l1_exponent(x, x.size, l1_max) == _l1_in_order(x, l1_max)
+    total = sum(abs(float(v)) for v in x)
+    for k in (-3, 0, 5):  # scale the sum onto the boundary l1_max 2^k, then nudge it
+        y = x * (l1_max * 2.0 ** k / total)
+        for z in (y, np.nextafter(y, np.inf), np.nextafter(y, 0.0)):
+            assert kern.l1_exponent(z, z.size, l1_max) == _l1_in_order(z, l1_max)
+
+
+def test_terms_may_clip_is_a_sound_bound():
+    """Where _terms_may_clip says no term can leave the accumulator's range, none does:
+    every product of the rule's mantissa range with every trace, at every shift."""
+    f = np.arange(-kern.TRACE_MAX, kern.TRACE_MAX + 1)
+    for mf in range(-8 * kern.TRACE_MAX, 8 * kern.TRACE_MAX + 1, 3):
+        for k in range(kern.MAX_TERM_SHIFT + 2):
+            if not kern._terms_may_clip(mf, kern.TRACE_MAX, k):
+                t = ((mf * f) >> kern.PRODUCT_SHIFT) << k
+                assert t.min() >= kern.ACC_MIN and t.max() <= kern.ACC_MAX
+    assert not kern._terms_may_clip(5, 127, 0) and kern._terms_may_clip(1016, 127, 15)
+
+
+@pytest.mark.parametrize("k", [-0, 2, 7, 15, 16, 20])
+def test_term_line_is_the_engine_term_cell_by_cell(k):
+    """The vectorised line of the learning engine against engine_term and
+    accumulate, the golden single-term functions, on random traces and accumulators."""
+    rng = np.random.default_rng(k)
+    for mf in (-7 * 127, -3, 0, 5, 7 * 100):
+        factors = rng.integers(-127, 128, 64) * (rng.random(64) < 0.7)
+        line = rng.integers(kern.ACC_MIN, kern.ACC_MAX + 1, 64).astype(np.int32)
+        want = line.astype(np.int64).copy()
+        psat = asat = 0
+        for b, f in enumerate(factors):
+            if f == 0:
+                continue
+            t, s1 = kern.engine_term(mf, int(f), 1, k)
+            psat += s1
+            if t != 0:
+                want[b], s2 = kern.accumulate(want[b], t)
+                asat += s2
+        for clip in (True, False):  # without the clip only where no term can leave the range
+            if clip or not kern._terms_may_clip(mf, int(np.abs(factors).max()), k):
+                got = line.copy()
+                assert kern._term_line.py_func(got, mf, factors, k, clip) == (psat, asat)
+                assert np.array_equal(got, want)

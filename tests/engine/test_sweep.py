@@ -1,0 +1,99 @@
+"""The sweep engine: atomic per-task results, resume without recomputation, pool == Dask."""
+
+import json
+
+import pytest
+
+from cml_edge.engine.sweep import Task, load_done, run_sweep, task_path
+from cml_edge.experiments.common import TASK_FN, eval_spec, make_tasks, pool
+
+TINY = {"arena": 10, "walks": 3, "steps": 60,
+        "evals": [eval_spec("e", trials=6, max_steps=30),
+                  eval_spec("o", obstacles=20, trials=6, max_steps=30, planner="escape")]}
+
+
+def tiny_tasks(seeds=3):
+    return make_tasks([("tiny", TINY), ("mixed", {**TINY, "explore": "mixed"})], seeds)
+
+
+def numbers(results):
+    """Everything but the wall time."""
+    return {k: {kk: vv for kk, vv in r.items() if kk != "wall_time_s"}
+            for k, r in results.items()}
+
+
+@pytest.fixture(scope="module")
+def reference_results(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ref")
+    return numbers(run_sweep(tiny_tasks(), out, workers=1)), out
+
+
+def test_each_task_is_written_and_a_rerun_recomputes_nothing(reference_results, tmp_path):
+    results, _ = reference_results
+    tasks = tiny_tasks()
+    seen = []
+    first = run_sweep(tasks, tmp_path, workers=1, progress=lambda d, t: seen.append((d, t)))
+    assert numbers(first) == results and seen[-1] == (6, 6)
+    mtimes = {t.key: task_path(tmp_path, t.key).stat().st_mtime_ns for t in tasks}
+    doc = json.loads(task_path(tmp_path, tasks[0].key).read_text())
+    assert doc["params"]["seed"] == 0 and doc["result"]["evals"][0]["trials"] == 6
+    # interrupted sweep: one task lost, one half-written; a rerun redoes exactly those two
+    task_path(tmp_path, tasks[1].key).unlink()
+    task_path(tmp_path, tasks[2].key).write_text('{"format": "cml-edge-sweep-ta')
+    seen.clear()
+    again = run_sweep(tasks, tmp_path, workers=1, progress=lambda d, t: seen.append((d, t)))
+    assert numbers(again) == results
+    assert seen[0] == (4, 6) and seen[-1] == (6, 6)
+    for t in tasks:
+        now = task_path(tmp_path, t.key).stat().st_mtime_ns
+        assert (now == mtimes[t.key]) == (t.key not in (tasks[1].key, tasks[2].key)), t.key
+    assert not [p for p in (tmp_path / "tasks").iterdir() if p.suffix != ".json"]
+
+
+def test_changed_parameters_are_not_taken_as_done(tmp_path):
+    task = Task("a", TASK_FN, {**TINY, "seed": 0})
+    run_sweep([task], tmp_path, workers=1)
+    assert load_done(tmp_path, task) is not None
+    assert load_done(tmp_path, Task("a", TASK_FN, {**TINY, "seed": 1})) is None
+
+
+def test_process_pool_gives_the_same_numbers(reference_results, tmp_path):
+    results, _ = reference_results
+    assert numbers(run_sweep(tiny_tasks(), tmp_path, workers=2)) == results
+
+
+def test_dask_gives_the_same_numbers(reference_results, tmp_path):
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    results, _ = reference_results
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None) as cluster:
+        got = run_sweep(tiny_tasks(), tmp_path, scheduler=cluster.scheduler_address)
+    assert numbers(got) == results
+
+
+def test_pooled_metrics_are_over_all_trials(reference_results):
+    results, _ = reference_results
+    recs = [r["evals"][0] for k, r in results.items() if k.startswith("tiny-")]
+    pooled = pool(recs)
+    assert pooled["trials"] == 18
+    assert pooled["success_rate"] == pytest.approx(sum(r["success_rate"] for r in recs) / 3)
+
+
+def test_bad_sweeps(tmp_path):
+    with pytest.raises(ValueError, match="not unique"):
+        run_sweep([Task("a", TASK_FN), Task("a", TASK_FN)], tmp_path)
+    with pytest.raises(ValueError, match="file-safe"):
+        Task("../a", TASK_FN)
+    with pytest.raises(ValueError, match="module:function"):
+        Task("a", "nofunction")
+    with pytest.raises(ValueError, match="seeds"):
+        make_tasks([("x", {})], 0)
+
+
+def test_unreachable_scheduler(tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    monkeypatch.setattr("cml_edge.engine.sweep.CONNECT_TIMEOUT", "1s")
+    with pytest.raises(ValueError, match="cannot reach the Dask scheduler"):
+        run_sweep(tiny_tasks(1), tmp_path, scheduler="tcp://127.0.0.1:9")

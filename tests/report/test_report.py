@@ -1,0 +1,156 @@
+"""The hardware-budget report: counts from the formulas, a schema, numbers traceable to JSON."""
+
+import json
+import re
+
+import pytest
+
+from cml_edge.core.cml import CML
+from cml_edge.costs import dqn as dqn_costs
+from cml_edge.costs import ledger
+from cml_edge.report import build_report, write_report
+from cml_edge.report.render import fmt
+from cml_edge.report.scorecard import Breakpoint, ScorecardPlan, breakpoint_row
+
+
+def test_paper_counts_from_real_shapes():
+    s = dqn_costs.DQNSettings()
+    assert dqn_costs.dqn_parameter_count(s) == 4872 and dqn_costs.dqn_inference_flops(s) == 9472
+    cml = CML.create()
+    assert cml.parameter_count() == 4608 and cml.inference_flops() == 9464
+    assert ledger.factored_accumulators(cml) == 60
+
+
+def test_memory_by_hand():
+    mem = ledger.cml_memory(CML.create(backend="float32"), "mixed", 30)
+    assert mem["parameter_bytes"] == 4608 * 4
+    assert mem["train_bytes_direct"] == 4608 * 4 * 2 + 900 / 8
+    dqn = dqn_costs.dqn_memory(dqn_costs.DQNSettings())
+    assert dqn["train_bytes_replay"] == 50_000 * 36
+    assert dqn["train_bytes"] == 5 * 4872 * 4 + 50_000 * 36 + 32 * (2 + 256 + 8) * 4
+
+
+def test_steps_to_converge_uses_the_dqn_criterion():
+    from cml_edge.report.build import steps_to_converge
+
+    assert steps_to_converge([10.0, 1.0, 0.3, 0.0], 900) == 3 * 900  # stays within 0.5
+    assert steps_to_converge([0.0, 0.6, 0.0], 900) == 3 * 900  # a late excursion counts
+    assert steps_to_converge([], 900) is None
+
+
+def test_energy_is_counted_with_sources_and_never_guessed():
+    e, sources = ledger.energy_pj("fp32", {"macs": 10, "bytes_read": 8})
+    assert e == pytest.approx(10 * 4.6 + 8 * 1.25) and all("Horowitz" in s for s in sources)
+    assert ledger.energy_pj("fp64", {"macs": 10}) == (None, [])
+
+
+# the scorecard's machinery on a smoke-test budget (its numbers mean nothing of a device)
+TINY_CARD = ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {}),
+                                                 ("crossbar-pcm", "crossbar", {"preset": "pcm"})],
+                          scenarios=("paper", "recovery"),
+                          breakpoints=(Breakpoint("float32", "float32", {}, "drift_time"),),
+                          workers=1)
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    rep = build_report(quick=True, systems=[("float32", "float32", {})],
+                       sweeps=[("read noise", "pcm read_noise 0.2", "crossbar",
+                                {"preset": "pcm", "read_noise": 0.2})], scorecard=TINY_CARD)
+    out = tmp_path_factory.mktemp("rep") / "r"
+    write_report(rep, out)
+    return rep, out
+
+
+def test_schema(report):
+    rep, out = report
+    data = json.loads((out / "report.json").read_text())
+    for key in ("schema_version", "command", "versions", "protocol", "systems", "costs",
+                "sweeps", "generated", "wall_time_s", "scorecard", "breakpoints", "recovery"):
+        assert key in data
+    labels = [s["label"] for s in data["systems"]]
+    assert labels == ["float32", "DQN-simplified", "DQN-tailored", "DQN-goal-conditioned"]
+    for s in data["systems"]:
+        for key in ("success_rate", "e_pos_mean", "overhead_mean", "parameters",
+                    "parameter_bytes", "train_bytes_direct", "update_bytes_per_run_direct",
+                    "update_bytes_per_step_direct", "energy_per_run_uj", "train_wall_s"):
+            assert key in s
+    assert [w["label"] for w in data["sweeps"]] == ["pcm read_noise 0.2"]
+    for png in ("convergence.png", "accuracy.png", "memory_traffic.png", "trajectories.png",
+                "sweeps.png", "scorecard.png", "breakpoints.png", "recovery.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def _numbers(obj):
+    if isinstance(obj, dict):
+        for v in obj.values():
+            yield from _numbers(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _numbers(v)
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield fmt(obj)
+
+
+def test_every_number_in_the_markdown_tables_is_in_the_json(report):
+    _, out = report
+    known = set(_numbers(json.loads((out / "report.json").read_text())))
+    md = (out / "report.md").read_text()
+    cells = [c.strip() for line in md.splitlines() if line.startswith("| ")
+             for c in line.strip("|").split("|")]
+    numbers = [c for c in cells if re.fullmatch(r"-?[0-9][0-9.e+-]*", c)]
+    assert numbers and all(n in known for n in numbers), [n for n in numbers if n not in known]
+
+
+def test_interrupted_report_leaves_nothing(tmp_path, monkeypatch, report):
+    rep, _ = report
+    import cml_edge.report.render as render
+
+    def boom(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(render, "render_markdown", boom)
+    with pytest.raises(KeyboardInterrupt):
+        write_report(rep, tmp_path / "r")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_report_refuses_a_missing_dqn_results_file(tmp_path, capsys):
+    from cml_edge.cli import main
+
+    assert main(["report", "--quick", "--out", str(tmp_path / "r"),
+                 "--dqn-results", str(tmp_path / "none.json")]) == 2
+    assert "no such file" in capsys.readouterr().err and not (tmp_path / "r").exists()
+
+
+def test_scorecard_sections(report):
+    rep, _ = report
+    card = rep["scorecard"]
+    stable = {"device", "scenario", "success_rate", "overhead_mean", "weight_error",
+              "decision_agreement", "seeds"}
+    assert all(stable <= set(r) and r["seeds"] == 2 for r in card)
+    cells = {(r["device"], r["scenario"], r["part"]) for r in card}
+    parts = ["paper"] + [f"K{k}" for k in (0, 1, 2, 5, 10, 20)]
+    assert cells == {(d, "paper" if p == "paper" else "recovery", p)
+                     for d in ("float32", "crossbar-pcm") for p in parts}
+    float32 = {r["part"]: r for r in card if r["device"] == "float32"}
+    assert 0 < float32["paper"]["weight_error"] < 1e-3  # float32 rounding, not zero
+    rec = rep["recovery"]
+    assert {"device", "walks", "success_rate", "pulses", "energy_uJ"} <= set(rec[0])
+    pcm = {r["walks"]: r for r in rec if r["device"] == "crossbar-pcm"}
+    assert sorted(pcm) == [0, 1, 2, 5, 10, 20]
+    assert pcm[0]["pulses"] == 0 and 0 < pcm[1]["pulses"] < pcm[20]["pulses"]
+    assert 0 < pcm[1]["energy_uJ"] < pcm[20]["energy_uJ"]
+    assert all(r["pulses"] == 0 and r["writes"] > 0 for r in rec
+               if r["device"] == "float32" and r["walks"] > 0)
+    (bp,) = rep["breakpoints"]  # the tiny budget fails at the good end: no bracket
+    assert {"device", "knob", "scenario", "value", "target", "seeds"} <= set(bp)
+    assert bp["value"] is None and "does not bracket" in bp["note"]
+
+
+def test_breakpoint_row_bracketed():
+    row = breakpoint_row(Breakpoint("fixed", "fixed", {}, "bits", value_range=(2, 16)),
+                         ScorecardPlan(2, "quick", 2, workers=1))
+    assert row["value"] in [e["value"] for e in row["evaluations"]]
+    ok = {e["value"]: e["success_rate"] >= row["target"] for e in row["evaluations"]}
+    assert ok[row["bracket"][0]] and not ok[row["bracket"][1]]
