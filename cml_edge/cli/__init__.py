@@ -8,11 +8,14 @@
 - :mod:`~cml_edge.cli.device`: ``device characterize``;
 - :mod:`~cml_edge.cli.export`: ``export`` (a loihi2 model's weights for Lava);
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the
-  synaptic-array options).
+  synaptic-array options);
+- :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
+- :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
 
 Bad input gets one line on stderr naming the value and what is allowed, exit status
 2, no traceback, and nothing written. ``--json`` prints one JSON object on stdout and
-nothing else there; progress goes to stderr, only on a terminal.
+nothing else there; without it, the command's view of the result
+(:mod:`~cml_edge.cli.output`). Progress bars go to stderr, only on a terminal.
 """
 
 from __future__ import annotations
@@ -20,10 +23,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
 
 from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
+from cml_edge.cli.compiling import announce_compiles
+from cml_edge.cli.output import show_fields
 from cml_edge.errors import InputError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
@@ -44,34 +48,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _print_human(command: str, result: dict[str, Any]) -> None:
-    # "path" is the older name of "compute_path" (and of navigate's "trajectory")
-    skip = {"per_seed", "curve_e_pos_mean", "train_error", "path", "seed_list", "counters"}
-    if command == "navigate":
-        skip = {"path"}
-    for k, v in result.items():
-        if k in skip or isinstance(v, dict):
-            continue
-        if isinstance(v, float):
-            v = f"{v:.4f}"
-        print(f"{k:>24}: {v}")
-    for group in ("counters", "backends", "ratios"):
-        if isinstance(result.get(group), dict):
-            print(f"{group}:")
-            for k, v in result[group].items():
-                print(f"{k:>24}: {v}")
-    chips = result.get("chips")
-    if isinstance(chips, dict):  # emulate --chips: the distribution over chips
-        print(f"chips: {chips['n']} (mean, std, min, p05, median, p95, max)")
-        for k, stats in chips["distribution"].items():
-            print(f"{k:>24}: " + " ".join(f"{v:.4g}" for v in stats.values()))
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-        result = args.run(args)
+        with announce_compiles(args):
+            result = args.run(args)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
@@ -80,6 +62,6 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     if getattr(args, "json", False):
         print(json.dumps(result))
-    elif not result.get("_printed"):
-        _print_human(args.command, result)
+    else:
+        getattr(args, "show", show_fields)(result)
     return 0

@@ -14,6 +14,7 @@ import json
 import math
 from typing import Any
 
+from cml_edge.backends import backend_spec
 from cml_edge.cli.args import Progress, add_backend, backend_options, command_line, int_at_least
 from cml_edge.errors import InputError
 
@@ -35,7 +36,11 @@ def add_parsers(sub) -> None:
     c = dsub.add_parser("characterize", help="programming, drift, read noise and pulse "
                         "response of a crossbar preset, measured on N devices per point")
     add_backend(c)
-    c.set_defaults(backend="crossbar")
+    c.set_defaults(backend="crossbar", show=show_characterize)
+    for action in c._actions:  # the shared --backend help names another default
+        if action.dest == "backend":
+            action.help = ("the device: crossbar, the one characterised (default); its "
+                           "preset by --preset (default pcm)")
     c.add_argument("--devices", type=int_at_least(2, ">= 2 (devices per point)"), default=10_000,
                    help="devices per point (10,000)")
     c.add_argument("--seed", type=int_at_least(0, ">= 0"), default=0,
@@ -60,7 +65,8 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"device characterize has no model of --backend {args.backend!r} "
                          "(allowed: crossbar)")
     options = backend_options(args)
-    preset = options.pop("preset", None) or "pcm"
+    preset = options.pop("preset", None) or backend_spec("crossbar").device.default_preset(
+        "crossbar")
     result = characterize(preset, devices=args.devices, seed=args.seed, targets=args.targets,
                           times=args.times, progress=Progress("characterize"), **options)
     result["command"] = command_line()
@@ -68,24 +74,42 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
         atomic_write_text(args.out, json.dumps(result, indent=1) + "\n")
     if args.plot:
         plot(result, args.plot)
-    if not args.json:
-        _print_table(result)
-        result["_printed"] = True
     return result
 
 
-def _print_table(r: dict[str, Any]) -> None:
-    print(f"crossbar preset {r['preset']}, {r['devices']} devices per point")
-    print("programming: target -> mean +- std (uS)")
-    for p in r["programming"]:
-        print(f"  {p['g_target_us']:8.3f} -> {p['mean_us']:8.3f} +- {p['std_us']:.4f}")
-    print("drift: target, t (s): E[G(t)]/E[G(0)], nu mean / std; read-noise std (uS)")
-    for d, n in zip(r["drift"], r["read_noise"]):
-        ratio = "n/a" if d["mean_ratio"] is None else f"{d['mean_ratio']:.4f}"
-        print(f"  {d['g_target_us']:8.3f} {d['t_s']:10.3g}: {ratio}, {d['nu_mean']:.4f} / "
-              f"{d['nu_std']:.4f}; {n['std_us']:.4f}")
-    print("pulses: G, direction: mean step +- std (uS)")
-    for p in r["pulses"]:
-        print(f"  {p['g_us']:8.3f} {p['direction']:>4}: {p['mean_step_us']:.4f} +- "
-              f"{p['step_std_us']:.4f}")
-    print(f"pulses to 90 % of the range: {r['pulses_to_full_range']}")
+def show_characterize(r: dict[str, Any]) -> None:
+    """One row per target conductance: programmed, drifted, read noise, one pulse's step
+    (``--json``: every measurement)."""
+    from cml_edge.backends.crossbar.characterize import pulses_text, time_text
+    from cml_edge.cli.output import num, table
+
+    times = sorted({d["t_s"] for d in r["drift"]})
+    last = times[-1]
+    drift = {(d["g_target_us"], d["t_s"]): d for d in r["drift"]}
+    noise = {(d["g_target_us"], d["t_s"]): d["std_us"] for d in r["read_noise"]}
+    pulses = {(p["g_us"], p["direction"]): p for p in r["pulses"]}
+
+    def pm(mean: float, std: float) -> str:
+        return f"{num(mean, 2)}+-{num(std, 2)}"
+
+    def step(g: float, direction: str) -> str:
+        p = pulses.get((g, direction))
+        return "" if p is None else pm(p["mean_step_us"], p["step_std_us"])
+
+    rows = [[num(p["g_target_us"]), f"{num(p['mean_us'])}+-{num(p['std_us'], 2)}",
+             *(num(drift[p["g_target_us"], t]["mean_ratio"]) for t in times if t > 0),
+             num(drift[p["g_target_us"], last]["nu_mean"]), num(noise[p["g_target_us"], last]),
+             step(p["g_target_us"], "up"), step(p["g_target_us"], "down")]
+            for p in r["programming"]]
+    print(f"crossbar preset {r['preset']}: {r['devices']:,} devices per point, seed "
+          f"{r['seed']}; conductances in uS")
+    print(f"  by time t: E[G(t)] / E[G(0)]; nu: drift exponent; noise: read-noise std at "
+          f"{time_text(last)};\n  up, down pulse: the step one pulse makes, mean+-std")
+    header = ["target", "programmed", *(time_text(t) for t in times if t > 0), "nu", "noise",
+              "up pulse", "down pulse"]
+    print("\n".join("  " + line for line in table(rows, header)))
+    if r["pulses"]:
+        print(f"  pulses to 90 % of the range: {pulses_text(r['pulses_to_full_range'])}")
+    else:
+        print(f"  no pulses: preset {r['preset']} has no conductance levels (updates are "
+              "written exactly)")

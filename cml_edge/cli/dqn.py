@@ -9,6 +9,7 @@ from cml_edge.baselines import load_results
 from cml_edge.baselines.dqn import evaluate_runs, train_runs
 from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, RESULTS_PATH, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
+from cml_edge.cli.output import show_dqn
 from cml_edge.io.files import writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, REWARDS
 
@@ -17,7 +18,7 @@ def add_parsers(subparsers) -> None:
     """``dqn train|evaluate``."""
     p = subparsers.add_parser("dqn", help="DQN baseline (needs the dqn extra): train, or "
                               "evaluate beside the CML on the same pairs")
-    p.set_defaults(run=cmd_dqn)
+    p.set_defaults(run=cmd_dqn, show=show_dqn)
     sub = p.add_subparsers(dest="dqn_command", required=True, parser_class=type(p))
     for name, help_text in (("train", "train DQN seeds (resumes: skips seeds already done)"),
                             ("evaluate", "evaluate trained seeds and the CML on the same "

@@ -22,6 +22,7 @@ from cml_edge.cli.args import (
     nonneg_int,
     positive_int,
 )
+from cml_edge.cli.output import show_evaluate, show_navigate, show_protocol, show_train
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import SCHEDULES
@@ -119,7 +120,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=nonneg_int, default=0, help="model seed (0)")
     p.add_argument("--out", required=True, help="model file to write (.npz)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.set_defaults(run=cmd_train)
+    p.set_defaults(run=cmd_train, show=show_train)
 
     p = sub.add_parser("evaluate", help="evaluate a saved model on fixed (start, goal) pairs")
     p.add_argument("model", help="model file (.npz)")
@@ -133,7 +134,7 @@ def add_parsers(sub) -> None:
                         "else direct")
     _add_planner(p)
     _add_map(p)
-    p.set_defaults(run=cmd_evaluate)
+    p.set_defaults(run=cmd_evaluate, show=show_evaluate)
 
     p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
     p.add_argument("model", help="model file (.npz)")
@@ -149,7 +150,7 @@ def add_parsers(sub) -> None:
     _add_map(p)
     p.add_argument("--plot", help="write a PNG of the arena and the path")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.set_defaults(run=cmd_navigate)
+    p.set_defaults(run=cmd_navigate, show=show_navigate)
 
     p = sub.add_parser("emulate", help="train and evaluate models on a synaptic array "
                        "(the evaluation protocol)")
@@ -166,7 +167,7 @@ def add_parsers(sub) -> None:
     _add_planner(p)
     _add_map(p)
     add_chips(p)
-    p.set_defaults(run=cmd_emulate)
+    p.set_defaults(run=cmd_emulate, show=show_protocol)
 
 
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
@@ -180,6 +181,7 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     arena = GridArena.empty(args.arena)
     t0 = time.perf_counter()
     bar = Progress("train")
+    bar(0, config.walks)
     errors = train(cml, arena, config, args.seed, path=path,
                    on_epoch=lambda done: bar(done, config.walks))
     record = {"arena": args.arena, "walks": args.walks, "steps": args.steps,

@@ -18,6 +18,7 @@ from cml_edge.cli.args import (
     positive_float,
     positive_int,
 )
+from cml_edge.cli.output import show_robot_evaluate, show_robot_navigate, show_robot_train
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
@@ -112,6 +113,7 @@ def add_parsers(subparsers) -> None:
                    help="compiled loop (direct) or plain-Python reference")
     t.add_argument("--out", required=True, help="model file to write (.npz)")
     t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    t.set_defaults(show=show_robot_train)
 
     e = sub.add_parser("evaluate", help="drive to random goals from the base; the issue's "
                        "metrics")
@@ -122,6 +124,7 @@ def add_parsers(subparsers) -> None:
     e.add_argument("--seeds", type=positive_int, default=None,
                    help="use the first N models (default all)")
     _add_planning(e)
+    e.set_defaults(show=show_robot_evaluate)
 
     n = sub.add_parser("navigate", help="drive to a few goals and plot them (Figure 9)")
     n.add_argument("model", help="robot model file (.npz)")
@@ -133,6 +136,7 @@ def add_parsers(subparsers) -> None:
     n.add_argument("--model-index", type=nonneg_int, default=0,
                    help="which model of the file drives (0)")
     n.add_argument("--plot", default=None, help="write a PNG like the paper's Figure 9")
+    n.set_defaults(show=show_robot_navigate)
     _add_planning(n)
 
 

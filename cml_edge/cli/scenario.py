@@ -16,6 +16,7 @@ from cml_edge.cli.args import (
     finite_float,
     positive_int,
 )
+from cml_edge.cli.output import show_breakpoint, show_scenario
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import KNOBS, MIN_SEEDS, find_breakpoint
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
@@ -45,7 +46,7 @@ def add_parsers(sub) -> None:
     _add_common(p, 10)
     p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
     add_chip_flags(p)
-    p.set_defaults(run=cmd_scenario)
+    p.set_defaults(run=cmd_scenario, show=show_scenario)
 
     p = sub.add_parser("breakpoint", help="the knob value where a scenario's success "
                        "crosses a target (bisection on a seeded grid)")
@@ -60,7 +61,7 @@ def add_parsers(sub) -> None:
     _add_common(p, 3)
     p.add_argument("--out", default=None,
                    help="folder: one resumable sweep per knob value, and breakpoint.json")
-    p.set_defaults(run=cmd_breakpoint)
+    p.set_defaults(run=cmd_breakpoint, show=show_breakpoint)
 
 
 def _budget(args: argparse.Namespace) -> str:
@@ -80,31 +81,7 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
                           Progress(f"scenario {args.name}"), command=command_line(), **on_chips)
-    if not args.json:
-        _print_table(result)
     return result
-
-
-def _print_table(result: dict[str, Any]) -> None:
-    """The parts as a markdown table: success, overhead and the seed means of the metrics."""
-    from cml_edge.experiments.common import markdown_table
-
-    rows = [{"part": p["part"], "success": p["success_rate"], "overhead": p["overhead_mean"],
-             "weight error": p["weight_error"]["matrix_mean"]["mean"],
-             "agreement": p["decision_agreement"]["mean"],
-             **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
-                if "pulses" in p else {})} for p in result["parts"]]
-    chips = f" x {len(result['chip_seeds'])} chips" if "chip_seeds" in result else ""
-    print(f"{result['scenario']} on {result['backend']} {result['backend_options'] or ''} "
-          f"({result['seeds']} seeds{chips}, {result['budget']} budget)")
-    print(markdown_table(rows, tuple(rows[0])))
-    for p in result["parts"]:
-        if "chips" in p:
-            s = p["chips"]["success_rate"]
-            print(f"{p['part']}: yield {p['yield']:.3f} (success >= {p['yield_target']:g}) "
-                  f"over {p['chips']['n']} chips; success mean {s['mean']:.3f}, p05 "
-                  f"{s['p05']:.3f}, median {s['median']:.3f}, p95 {s['p95']:.3f}")
-    result["_printed"] = True
 
 
 def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:

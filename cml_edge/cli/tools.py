@@ -9,6 +9,7 @@ from typing import Any
 
 from cml_edge.backends import BACKENDS
 from cml_edge.cli.args import Progress, command_line, positive_int
+from cml_edge.cli.output import show_bench, show_sweep
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.io.files import writable_folder
@@ -36,7 +37,7 @@ def add_parsers(sub) -> None:
                         "experiments")
     p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.set_defaults(run=cmd_sweep)
+    p.set_defaults(run=cmd_sweep, show=show_sweep)
 
     p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
                        "figures)")
@@ -66,7 +67,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
                    help="also time the wheeled robot on these simulators (kinematic, mujoco)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.set_defaults(run=cmd_bench)
+    p.set_defaults(run=cmd_bench, show=show_bench)
 
 
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
@@ -110,7 +111,7 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge import experiments
-    from cml_edge.experiments.common import markdown_table, run_experiment
+    from cml_edge.experiments.common import run_experiment
 
     module = experiments.get(args.experiment)
     if args.out is not None:
@@ -127,8 +128,4 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
                              progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
                              planner=args.planner, map=args.map, scen=args.scen)
     summary["command"] = command_line()
-    if not args.json:
-        print(markdown_table(summary["rows"], module.COLUMNS))
-        print(f"results: {summary['out']}/results.json, results.csv, figure.png")
-        summary["_printed"] = True
     return summary

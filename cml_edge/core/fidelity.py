@@ -19,8 +19,11 @@ arithmetic they share is here:
   from, the planning reads (W_q (o* - o) and W_q o, W_v^T d, W_k s) taken by the device
   and computed exactly from its effective weights on the same input:
   SNR = rms(exact) / std(device - exact). It is read from a copy of the device, so the
-  run's counters and random stream are untouched; None means the reads were exact (no
-  read error: an infinite SNR).
+  run's counters and random stream are untouched. None (JSON null) means not applicable:
+  the device's reads differ from the exact ones by no more than float64 rounding
+  (``READ_ROUNDING``): it computes as its float64 twin does (the float64 array, the
+  ideal crossbar), and the ratio of the reads to their rounding (~1e15) would say nothing
+  about the device.
 
 Per-seed values are pooled over seeds by :func:`seed_stats` (mean and spread).
 """
@@ -39,6 +42,10 @@ from cml_edge.core.cml import CML
 MATRICES = ("W_q", "W_k", "W_v")
 SNR_SAMPLES = 64
 """States sampled per seed for :func:`read_snr` (each gives four reads)."""
+READ_ROUNDING = 1e-12
+"""The largest read error, relative to the reads' rms, that :func:`read_snr` counts as
+float64 rounding rather than the device's (its SNR is then None). float64 arithmetic in
+another order errs by ~1e-16, float32 arithmetic by ~1e-7."""
 TWIN = ("float64 CML of the same seed (same initial weights) trained on the same walks with "
         "the same schedule: factored path for the per-walk schedule, direct float64 for the "
         "per-step one")
@@ -58,8 +65,9 @@ def weight_error(cml: CML, twin: CML) -> dict[str, float]:
 
 def read_snr(cml: CML, states: Iterable[tuple[np.ndarray, np.ndarray]]) -> dict[str, Any]:
     """Per matrix, rms(exact) / std(device - exact) of the planning reads at ``states``
-    (pairs (o, o* - o)); read from a copy of ``cml`` (module docstring). None: no read
-    error (infinite SNR); ``reads`` counts the reads per matrix."""
+    (pairs (o, o* - o)); read from a copy of ``cml`` (module docstring). None: not
+    applicable, the read error is float64 rounding at most (``READ_ROUNDING``); ``reads``
+    counts the reads per matrix."""
     dev = copy.deepcopy(cml)
     Wq, Wk, Wv = (a.to_float() for a in cml.arrays)
     got: dict[str, list[np.ndarray]] = {m: [] for m in MATRICES}
@@ -80,7 +88,8 @@ def read_snr(cml: CML, states: Iterable[tuple[np.ndarray, np.ndarray]]) -> dict[
             continue
         y, x = np.concatenate(got[m]), np.concatenate(exact[m])
         noise = float(np.std(y - x))
-        out[m] = float(np.sqrt(np.mean(x * x)) / noise) if noise > 0 else None
+        rms = float(np.sqrt(np.mean(x * x)))
+        out[m] = rms / noise if noise > READ_ROUNDING * rms else None
     out["reads"] = len(got["W_k"])
     return out
 
@@ -95,7 +104,8 @@ def sample_indices(n: int, seed: int, stream: int, k: int = SNR_SAMPLES) -> np.n
 
 def seed_stats(values: Sequence[float | None]) -> dict[str, Any]:
     """Mean and spread over seeds: mean, std (sample, ddof 1; 0 for one seed), min, max, n.
-    A None among the values (an infinite SNR) makes mean, std and max None."""
+    A None among the values (a figure not applicable: a read SNR of float64 rounding)
+    makes mean, std and max None."""
     vals = list(values)
     if not vals:
         return {"mean": None, "std": None, "min": None, "max": None, "n": 0}

@@ -141,9 +141,11 @@ class SeedRun:
 
 
 def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None,
-               curve_at_start: bool = False) -> SeedRun:
+               curve_at_start: bool = False,
+               on_epoch: Callable[[int], None] | None = None) -> SeedRun:
     """Make the CML of ``seed`` and train it (the first half of :func:`train_and_evaluate`);
-    the run has no evaluations yet (:func:`evaluate_seed`)."""
+    the run has no evaluations yet (:func:`evaluate_seed`). ``on_epoch(walks)`` is called
+    after every ``training.epoch`` walks (outside the timed training)."""
     cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
     cml = CML.create(cml_config, training.backend, seed, training.chip,
                      **training.backend_options)
@@ -160,14 +162,16 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
     wall, cpu = [0.0], [0.0]
     clock = [time.perf_counter(), time.process_time()]
 
-    def on_epoch(walks: int) -> None:
+    def epoch_done(walks: int) -> None:
         wall.append(wall[-1] + time.perf_counter() - clock[0])
         cpu.append(cpu[-1] + time.process_time() - clock[1])
         point(walks)
+        if on_epoch is not None:
+            on_epoch(walks)
         clock[0], clock[1] = time.perf_counter(), time.process_time()
 
     errors = train(cml, training.arena, training.config, seed, path=path,
-                   epoch=training.epoch, on_epoch=on_epoch)
+                   epoch=training.epoch, on_epoch=epoch_done)
     counters = cml.counters()
     return SeedRun(int(seed), cml, path, errors, points, [], [], counters, dict(counters), wall,
                    cpu)
@@ -189,14 +193,16 @@ def evaluate_seed(run: SeedRun, evaluations: Sequence[Evaluation], idle_s: float
 
 def train_and_evaluate(seed: int, training: Training, evaluations: Sequence[Evaluation] = (),
                        *, curve: Evaluation | None = None, curve_at_start: bool = False,
-                       idle_s: float = 0.0) -> SeedRun:
+                       idle_s: float = 0.0,
+                       on_epoch: Callable[[int], None] | None = None) -> SeedRun:
     """Make the CML of ``seed``, train it, let ``idle_s`` pass, plan each evaluation.
 
     With ``curve``, the model plans it every ``training.epoch`` walks (and before
     training with ``curve_at_start``): the convergence curve. The training times in the
-    result leave those plans out.
+    result leave those plans out. ``on_epoch``: :func:`train_seed`'s.
     """
-    run = train_seed(seed, training, curve=curve, curve_at_start=curve_at_start)
+    run = train_seed(seed, training, curve=curve, curve_at_start=curve_at_start,
+                     on_epoch=on_epoch)
     evaluate_seed(run, evaluations, idle_s)
     return run
 
@@ -248,6 +254,9 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
     default), each seed is also measured against its float64 twin (:func:`run_fidelity`):
     the keys ``weight_error``, ``decision_agreement`` and ``read_snr`` (seed means and
     spreads; per seed in ``per_seed``) are added, and no other number changes.
+    ``progress(done, total)`` counts units of work over all seeds: each seed's training
+    epochs (one every ``epoch`` walks), then its evaluation (with the fidelity); it is
+    called with 0 first, then after each unit.
     """
     if planner not in PLANNERS:
         raise InputError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
@@ -275,9 +284,15 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         raise InputError("no seeds given (allowed: one or more model seeds)")
     finals, steps, per_seed, curves, train_errors, fids = [], [], [], [], [], []
     counters: dict[str, int] = {}
+    units = -(-train_config.walks // epoch) + 1  # per seed: its epochs, its evaluation
+    total = units * len(seeds)
+    tick = progress or (lambda done, total: None)
+    tick(0, total)
     t0 = time.perf_counter()
     for n, seed in enumerate(seeds):
-        run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=idle_s)
+        run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=idle_s,
+                                 on_epoch=lambda walks, n=n: tick(n * units + -(-walks // epoch),
+                                                                  total))
         (res,), (summary,) = run.results, run.summaries
         finals.append(res.final)
         steps.append(res.steps)
@@ -290,8 +305,7 @@ def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trial
         train_errors.append(run.train_error.tolist())
         for k, v in run.counters.items():
             counters[k] = counters.get(k, 0) + v
-        if progress is not None:
-            progress(n + 1, len(seeds))
+        tick((n + 1) * units, total)
     pooled = summarize(np.concatenate(finals), np.concatenate(steps),
                        pool_pairs(pairs, len(seeds)))
     extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if fidelity else {}

@@ -17,7 +17,8 @@ The metrics are defined in :mod:`cml_edge.core.fidelity`. What is the grid's:
   not touched: the replay is a loop of its own over the device's recorded paths;
 - read SNR (:func:`plan_states`): the sampled states are decisions of the device's plan
   (cell and goal), ``SNR_SAMPLES`` of them from the generator keyed [seed,
-  ``STREAM_FIDELITY``].
+  ``STREAM_FIDELITY``]; None (not applicable) for a device that reads as its twin does,
+  to float64 rounding (the float64 array against its own twin: ``READ_ROUNDING``).
 """
 
 from __future__ import annotations

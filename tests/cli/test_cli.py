@@ -54,7 +54,7 @@ def test_compute_path_and_trajectory_keys(tmp_path, cli):
     assert nav["trajectory"] == nav["path"] and nav["trajectory"][0] == [0, 0]
     assert nav["compute_path"] == "factored"
     code, out, _ = cli("navigate", tmp_path / "m.npz", "--start", 0, 0, "--goal", 5, 5)
-    assert code == 0 and "trajectory: [[0, 0]" in out and "compute_path: factored" in out
+    assert code == 0 and "trajectory (x,y):\n    0,0 " in out and "factored path" in out
     code, out, _ = cli("emulate", *SMALL, "--seeds", 1, "--trials", 5, "--json")
     emulated = json.loads(out)
     assert emulated["compute_path"] == emulated["path"] == "direct"

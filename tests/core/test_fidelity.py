@@ -40,7 +40,8 @@ def test_a_float64_device_is_its_own_twin(planner, obstacles, schedule):
     assert max(fid["weight_error"].values()) < 1e-12
     # the replay reproduces every decision of the device's own planner, escape included
     assert fid["decision_agreement"] == 1.0 and fid["decisions"] == int(run.results[0].steps.sum())
-    assert all(v is None or v > 1e10 for k, v in fid["read_snr"].items() if k != "reads")
+    # the same arithmetic as the twin's: no read SNR to give (not a ratio to rounding)
+    assert all(v is None for k, v in fid["read_snr"].items() if k != "reads")
 
 
 def test_a_different_twin_disagrees():
@@ -142,3 +143,15 @@ def test_robot_train_takes_device_options_and_evaluate_reports_the_metrics(tmp_p
     else:  # float64 is its own twin
         assert data["weight_error"]["matrix_mean"]["max"] == 0
         assert data["decision_agreement"]["min"] == 1.0
+
+
+def test_read_snr_is_null_where_the_device_reads_as_its_twin():
+    states = [(np.array([0.1 * i - 0.3, 0.2]), np.array([0.25, -0.1 * i])) for i in range(8)]
+    for backend, options in (("float", {}), ("crossbar", {"preset": "ideal"})):
+        snr = read_snr(CML.create(CMLConfig(), backend, 0, **options), states)
+        assert [snr[m] for m in ("W_q", "W_k", "W_v")] == [None] * 3, backend
+    for backend, options in (("float32", {}), ("crossbar", {"preset": "pcm"}), ("int8", {})):
+        snr = read_snr(CML.create(CMLConfig(), backend, 0, **options), states)
+        assert all(0 < snr[m] < 1e12 for m in ("W_q", "W_k", "W_v")), (backend, snr)
+    assert seed_stats([None, 3.0]) == {"mean": None, "std": None, "min": 3.0, "max": None,
+                                       "n": 2}

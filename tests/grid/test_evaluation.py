@@ -76,3 +76,11 @@ def test_run_protocol_needs_a_seed():
 
     with pytest.raises(InputError, match="no seeds"):
         run_protocol("float", [], 5, 10)
+
+
+def test_run_protocol_reports_progress_during_training_and_evaluation():
+    calls = []
+    run_protocol("float", [0, 1], 5, 10, train_config=TrainConfig(25, 40), epoch=10,
+                 progress=lambda done, total: calls.append((done, total)))
+    # per seed: three training epochs (10, 20, 25 walks), then the evaluation
+    assert calls == [(n, 8) for n in range(9)]

@@ -411,3 +411,20 @@ def test_bench_robot_reports_actions_per_second(cli):
     assert robot["kinematic"]["plan_actions_per_s"] > 0
     code, _, err = cli("bench", "--robot", "webots")
     assert code == 2 and "webots" in err
+
+
+def test_cli_views_of_the_robot(model, tmp_path, cli):
+    code, out, err = cli("robot", "train", *SMALL, "--out", tmp_path / "one.npz")
+    assert code == 0, err
+    assert out.startswith("robot train: 1 model (seed 0) on kinematic") and "{" not in out
+    code, out, err = cli("robot", "evaluate", model, "--trials", 5)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].startswith("robot evaluate: 2 models x 5 goals on kinematic")
+    assert [line.split("  ")[1] for line in lines[1:]] == [
+        "device", "success rate", "path ratio", "weight error", "decision agreement",
+        "read SNR", "time"]
+    code, out, err = cli("robot", "navigate", model, "--goals", 3)
+    assert code == 0, err
+    assert out.startswith("robot navigate: model 0 to 3 goals on kinematic")
+    assert len(out.splitlines()) == 8  # the header, 3 rows, the goals' table of 3 and its head

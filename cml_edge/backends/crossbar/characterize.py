@@ -170,16 +170,27 @@ def characterize(preset: str = "pcm", *, devices: int = 10_000, seed: int = 0,
     }
 
 
-def plot(result: dict[str, Any], path: Any) -> None:
-    """The four panels of a device paper, written atomically to ``path`` (PNG)."""
-    import io
+def time_text(t: float) -> str:
+    """A time since programming in the unit that reads best: s, h or days."""
+    if t < 3600:
+        return f"{t:g} s"
+    return f"{t / 3600:g} h" if t < 86400 else f"{t / 86400:g} d"
 
+
+def pulses_text(full: dict[str, int | None]) -> str:
+    """``pulses_to_full_range`` in words: ``up 101, down never`` (None: not reached)."""
+    return ", ".join(f"{d} {'never' if full[d] is None else f'{full[d]:,}'}"
+                     for d in ("up", "down"))
+
+
+def figure(result: dict[str, Any]) -> Any:
+    """The four panels of a device paper (a matplotlib Figure): programming, drift,
+    accumulated read noise, pulse response (a note instead where the preset has no
+    conductance levels to pulse between)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from cml_edge.io.files import atomic_write
 
     fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
     prog = result["programming"]
@@ -205,26 +216,43 @@ def plot(result: dict[str, Any], path: Any) -> None:
     for ts in sorted({d["t_s"] for d in result["read_noise"]}):
         rows = [d for d in result["read_noise"] if d["t_s"] == ts]
         a.plot([d["g_target_us"] for d in rows], [d["std_us"] for d in rows], "o-", ms=3,
-               label=f"t = {ts:g} s")
+               label=f"t = {time_text(ts)}")
     a.set(xlabel="target G (uS)", ylabel="read-noise std (uS)",
           title="accumulated read noise")
     a.legend(fontsize=7)
     a = ax[1, 1]
-    for direction, color in (("up", "tab:blue"), ("down", "tab:orange")):
-        rows = [p for p in result["pulses"] if p["direction"] == direction]
-        if rows:
+    if result["pulses"]:
+        for direction, color in (("up", "tab:blue"), ("down", "tab:orange")):
+            rows = [p for p in result["pulses"] if p["direction"] == direction]
             a.errorbar([p["g_us"] for p in rows], [p["mean_step_us"] for p in rows],
                        yerr=[p["step_std_us"] for p in rows], fmt="o-", ms=3, capsize=3,
                        color=color, label=direction)
-    full = result["pulses_to_full_range"]
-    a.set(xlabel="G (uS)", ylabel="change per pulse (uS)",
-          title=f"pulse response (to 90 %: up {full['up']}, down {full['down']} pulses)")
-    a.axhline(0, color="k", lw=0.5)
-    a.legend(fontsize=8)
+        a.set(xlabel="G (uS)", ylabel="change per pulse (uS)", title="pulse response\n"
+              f"pulses to 90 % of the range: {pulses_text(result['pulses_to_full_range'])}")
+        a.axhline(0, color="k", lw=0.5)
+        a.legend(fontsize=8)
+    else:  # a continuous conductance (levels < 2): written exactly, not by pulses
+        a.text(0.5, 0.5, f"no pulse response: preset {result['preset']} has no conductance "
+               f"levels\n(levels {result['config']['levels']}): updates are written exactly, "
+               "not by pulses", ha="center", va="center", fontsize=9, transform=a.transAxes)
+        a.set(title="pulse response", xticks=[], yticks=[])
     settings = ", ".join(f"{k}={v}" for k, v in result["settings"].items())
     fig.suptitle(f"crossbar preset {result['preset']}{' (' + settings + ')' if settings else ''}"
-                 f": {result['devices']} devices per point, seed {result['seed']}")
+                 f": {result['devices']} devices per point, seed {result['seed']}\n"
+                 f"{result.get('command', 'cml-edge device characterize')}", fontsize=10)
     fig.tight_layout()
+    return fig
+
+
+def plot(result: dict[str, Any], path: Any) -> None:
+    """:func:`figure`, written atomically to ``path`` (PNG)."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from cml_edge.io.files import atomic_write
+
+    fig = figure(result)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)

@@ -454,3 +454,32 @@ def test_characterize_bad_input_is_one_line_exit_2(cli, argv, what, tmp_path):
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and what in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_characterize_figure_titles_and_a_preset_without_pulses(recwarn):
+    from cml_edge.backends.crossbar.characterize import figure, pulses_text
+
+    assert pulses_text({"up": 1234, "down": None}) == "up 1,234, down never"
+    pcm = characterize("pcm", devices=50, targets=[5.0, 20.0], times=[0.0, YEAR])
+    titles = [a.get_title() for a in figure(pcm).axes]
+    assert "pulse response\npulses to 90 % of the range: up" in " ".join(titles)
+    assert not any("None" in t for t in titles)
+    ideal = characterize("ideal", devices=50, targets=[5.0, 20.0], times=[0.0, YEAR])
+    assert ideal["pulses"] == []
+    panel = figure(ideal).axes[3]
+    assert [t.get_text() for t in panel.texts][0].startswith("no pulse response: preset "
+                                                             "ideal")
+    assert not [w for w in recwarn if "legend" in str(w.message)]
+
+
+def test_characterize_prints_one_row_per_target(cli):
+    code, out, err = cli("device", "characterize", "--devices", 50, "--targets", 5, 20,
+                         "--times", 0, 3600, YEAR)
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == "crossbar preset pcm: 50 devices per point, seed 0; conductances in uS"
+    assert lines[3].split() == ["target", "programmed", "1", "h", "365", "d", "nu", "noise",
+                                "up", "pulse", "down", "pulse"]
+    assert [line.split()[0] for line in lines[4:6]] == ["5", "20"]
+    assert lines[6].startswith("  pulses to 90 % of the range: up ")
+    assert len(lines) == 7 and "None" not in out
