@@ -9,7 +9,7 @@ from cml_edge.baselines import load_results
 from cml_edge.baselines.dqn import evaluate_runs, train_runs
 from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, RESULTS_PATH, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
-from cml_edge.cli.output import show_dqn
+from cml_edge.cli.output import labelled, num, pct, plural, secs, table
 from cml_edge.io.files import writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, REWARDS
 
@@ -69,3 +69,31 @@ def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
         return train_runs(run, seeds, args.results, args.models, command,
                           Progress(f"dqn train {run.name}"))
     return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
+
+
+# what a person reads (--json: the result) ----------------------------------------
+def _run_row(name: str, s: dict[str, Any], convergence: dict[str, Any] | None) -> list[str]:
+    return [name, pct(s["success_rate"]), num(s["overhead_mean"]), num(s["e_pos_mean"]),
+            secs(convergence["cpu_s"]) if convergence else ""]
+
+
+def show_dqn(r: dict[str, Any]) -> None:
+    """``dqn train`` and ``dqn evaluate``: the DQN beside the CML on the same pairs."""
+    steps = r.get("steps", r.get("train_steps"))
+    print(f"dqn {'train' if 'trained' in r else 'evaluate'}: {r['config']}, "
+          f"{plural(r['seeds'], 'seed')}, {num(steps)} training steps")
+    rows = [_run_row("DQN", r, r.get("convergence"))]
+    for path, c in (r.get("cml") or {}).items():
+        rows.append(_run_row(f"CML {path}", c, c.get("convergence")))
+    print("\n".join("  " + line for line in table(rows, [
+        "", "success", "overhead", "e_pos", "CPU s to converge"])))
+    extra = [("parameters", num(r.get("parameters"))),
+             ("inference FLOPs", num(r.get("inference_flops")))]
+    if "trained" in r:
+        extra += [("trained", ", ".join(map(str, r["trained"])) or "none"),
+                  ("skipped (done before)", ", ".join(map(str, r["skipped"])) or None),
+                  ("results", r["results_file"]), ("time", secs(r["wall_time_s"]))]
+    for path, ratio in (r.get("convergence_ratio") or {}).items():
+        extra.append((f"DQN / CML {path}", f"{num(ratio['cpu'])} x the CPU time, "
+                                           f"{num(ratio['steps'])} x the steps to converge"))
+    print("\n".join(labelled(extra)))

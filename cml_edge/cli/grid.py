@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,15 @@ from cml_edge.cli.args import (
     nonneg_int,
     positive_int,
 )
-from cml_edge.cli.output import show_evaluate, show_navigate, show_protocol, show_train
+from cml_edge.cli.output import (
+    device_label,
+    labelled,
+    num,
+    plural,
+    secs,
+    show_evaluate,
+    show_protocol,
+)
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import SCHEDULES
@@ -342,3 +351,36 @@ def _emulate_chips(args: argparse.Namespace, config: TrainConfig, options: dict[
     if args.out:
         atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
     return result
+
+
+# what a person reads (--json: the result) ----------------------------------------
+def show_train(r: dict[str, Any]) -> None:
+    """``train``: what was trained, where it was saved, its final training error."""
+    print(f"train: seed {r['seed']}, {r['arena']} x {r['arena']} arena, {r['walks']} walks x "
+          f"{r['steps']} steps ({r['explore']} exploration, {r['schedule']} schedule)")
+    print("\n".join(labelled([
+        ("device", device_label(r["backend"], r.get("backend_options"))),
+        ("model", r["model"]), ("compute path", r["compute_path"]),
+        ("final training error", num(r["final_train_error"])),
+        ("time", secs(r["wall_time_s"]))])))
+
+
+def _cell(p: Sequence[int]) -> str:
+    return f"({p[0]}, {p[1]})"
+
+
+def show_navigate(r: dict[str, Any]) -> None:
+    """``navigate``: the outcome of one plan and its trajectory, wrapped."""
+    import textwrap
+
+    print(f"navigate: {_cell(r['start'])} -> {_cell(r['goal'])}, {r['planner']} planner, "
+          f"{r['compute_path']} path")
+    steps = plural(r["steps"], "step")
+    if r["reached"]:
+        outcome = f"yes, in {steps} (Chebyshev distance {r['chebyshev']}, overhead " \
+                  f"{num(r['steps'] / max(r['chebyshev'], 1))})"
+    else:
+        outcome = f"no: stopped at {_cell(r['final'])} after {steps}, e_pos {num(r['e_pos'])}"
+    path = textwrap.wrap(" ".join(f"{x},{y}" for x, y in r["trajectory"]), 76)
+    print("\n".join(labelled([("reached", outcome), ("plot", r.get("plot"))])))
+    print("  trajectory (x,y):\n" + "\n".join("    " + line for line in path))

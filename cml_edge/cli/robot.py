@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,16 @@ from cml_edge.cli.args import (
     positive_float,
     positive_int,
 )
-from cml_edge.cli.output import show_robot_evaluate, show_robot_navigate, show_robot_train
+from cml_edge.cli.output import (
+    device_label,
+    fidelity_rows,
+    labelled,
+    num,
+    pct,
+    plural,
+    secs,
+    table,
+)
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
@@ -300,3 +310,54 @@ def cmd_robot(args: argparse.Namespace) -> dict[str, Any]:
     """Run ``cml-edge robot ...``; the JSON-ready result. Bad input raises InputError."""
     commands = {"train": _cmd_train, "evaluate": _cmd_evaluate, "navigate": _cmd_navigate}
     return commands[args.robot_command](args)
+
+
+# what a person reads (--json: the result) ----------------------------------------
+def _seed_range(seeds: Sequence[int]) -> str:
+    seeds = list(seeds)
+    return f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {seeds[0]}..{seeds[-1]}"
+
+
+def show_robot_train(r: dict[str, Any]) -> None:
+    """``robot train``: the models trained and where they were saved."""
+    print(f"robot train: {plural(len(r['seeds']), 'model')} ({_seed_range(r['seeds'])}) on "
+          f"{r['sim']}, {r['walks']} walks x {r['steps']} actions ({r['schedule']} schedule)")
+    print("\n".join(labelled([
+        ("device", device_label(r["backend"], r.get("backend_options"))),
+        ("observation", f"{r['observation']} (goal heading {r['goal_heading']}, heading "
+                        f"scale {num(r['heading_scale'])})"),
+        ("model", r["model"]),
+        ("final training error", ", ".join(num(e) for e in r["final_train_error"])),
+        ("time", f"{secs(r['wall_time_s'])} ({num(r['actions_per_s'])} actions/s)")])))
+
+
+def _robot_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
+    runs = r.get("seeds", 1) * r["trials"]
+    return [("device", device_label(r["backend"])),
+            ("success rate", f"{pct(r['success_rate'])}  ({round(r['success_rate'] * runs):,}"
+                             f" of {runs:,} goals within {num(r['radius'])} m)"),
+            ("path ratio", "n/a (no goal reached)" if r.get("path_ratio") is None else
+             f"{num(r['path_ratio'])}  (path length / straight distance; "
+             f"{num(r['mean_actions'])} actions a goal)")]
+
+
+def show_robot_evaluate(r: dict[str, Any]) -> None:
+    """``robot evaluate``: the protocol's table for the robot."""
+    print(f"robot evaluate: {plural(r['seeds'], 'model')} x {plural(r['trials'], 'goal')} on "
+          f"{r['sim']} (trained on {r['trained_on']}), {r['observation']} observation")
+    print("\n".join(labelled([*_robot_rows(r), *fidelity_rows(r),
+                              ("time", f"{secs(r['wall_time_s'])} "
+                                       f"({num(r['actions_per_s'])} actions/s)")])))
+
+
+def show_robot_navigate(r: dict[str, Any]) -> None:
+    """``robot navigate``: one model driven to each goal."""
+    print(f"robot navigate: model {r['model_index']} to {plural(r['trials'], 'goal')} on "
+          f"{r['sim']}, from base ({num(r['base'][0])}, {num(r['base'][1])}) m")
+    rows = [[f"({num(g[0])}, {num(g[1])})", num(ok), f"{a:,}", num(d)]
+            for g, ok, a, d in zip(r["runs"]["goals"], r["runs"]["reached"],
+                                   r["runs"]["actions"], r["runs"]["path_length"])]
+    print("\n".join(labelled([*_robot_rows(r), ("plot", r.get("plot"))])))
+    if len(rows) <= 10:
+        print("\n".join("  " + line for line in table(rows, ["goal (m)", "reached", "actions",
+                                                              "path (m)"])))

@@ -16,7 +16,7 @@ from cml_edge.cli.args import (
     finite_float,
     positive_int,
 )
-from cml_edge.cli.output import show_breakpoint, show_scenario
+from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import KNOBS, MIN_SEEDS, find_breakpoint
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
@@ -99,3 +99,43 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
     if args.out is not None:
         atomic_write_text(f"{args.out}/breakpoint.json", json.dumps(result, indent=1))
     return result
+
+
+# what a person reads (--json: the result) ----------------------------------------
+def show_scenario(r: dict[str, Any]) -> None:
+    """``scenario``: its parts as a table (success, overhead, the fidelity means, pulses
+    and energy where the device counts them), and the yield over chips."""
+    from cml_edge.experiments.common import markdown_table
+
+    rows = [{"part": p["part"], "success": p["success_rate"], "overhead": p["overhead_mean"],
+             "weight error": p["weight_error"]["matrix_mean"]["mean"],
+             "agreement": p["decision_agreement"]["mean"],
+             **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
+                if "pulses" in p else {})} for p in r["parts"]]
+    chips = f" x {plural(len(r['chip_seeds']), 'chip')}" if "chip_seeds" in r else ""
+    print(f"{r['scenario']} on {device_label(r['backend'], r['backend_options'])}: "
+          f"{plural(r['seeds'], 'seed')}{chips}, {r['budget']} budget")
+    print(markdown_table(rows, tuple(rows[0])))
+    for p in r["parts"]:
+        if "chips" in p:
+            s = p["chips"]["success_rate"]
+            print(f"{p['part']}: yield {p['yield']:.3f} (success >= {p['yield_target']:g}) "
+                  f"over {p['chips']['n']} chips; success mean {s['mean']:.3f}, p05 "
+                  f"{s['p05']:.3f}, median {s['median']:.3f}, p95 {s['p95']:.3f}")
+
+
+def show_breakpoint(r: dict[str, Any]) -> None:
+    """``breakpoint``: the knob value found, its bracket, and each value evaluated."""
+    part = r["part"] or "the worst part"
+    print(f"breakpoint: {r['knob']} ({r['field']}) on {r['scenario']}, "
+          f"{device_label(r['backend'], r['backend_options'])}; {plural(r['seeds'], 'seed')}, "
+          f"{r['budget']} budget")
+    print("\n".join(labelled([
+        ("break point", f"{num(r['value'])}: the last value toward the {r['good']} end whose "
+                        f"success ({part}) is >= {r['target']:g}"),
+        ("bracket", f"{num(r['bracket'][0])} passes, {num(r['bracket'][1])} fails"),
+        ("searched", f"{num(r['range'][0])} .. {num(r['range'][1])}, "
+                     f"{plural(len(r['grid']), 'grid value')}")])))
+    rows = [[num(e["value"]), pct(e["success_rate"])]
+            for e in sorted(r["evaluations"], key=lambda e: e["value"])]
+    print("\n".join("  " + line for line in table(rows, [r["knob"], "success"])))

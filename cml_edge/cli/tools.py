@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from cml_edge.backends import BACKENDS
 from cml_edge.cli.args import Progress, command_line, positive_int
-from cml_edge.cli.output import show_bench, show_sweep
+from cml_edge.cli.output import num, plural, table
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.io.files import writable_folder
@@ -129,3 +130,49 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
                              planner=args.planner, map=args.map, scen=args.scen)
     summary["command"] = command_line()
     return summary
+
+
+# what a person reads (--json: the result) ----------------------------------------
+def show_bench(r: dict[str, Any]) -> None:
+    """``bench``: CPU microseconds per step of each backend, and the ratios measured in
+    the same run (float64 to the hand-fused yardstick, any other backend to float64)
+    against their goals."""
+    ratios = r["ratios"]
+    print(f"bench: CPU us per step, median of {plural(r['repeats'], 'run')} ({r['walks']} x "
+          f"{r['steps']}-step training, 100 plans)")
+    rows = []
+
+    def row(name: str, figs: dict[str, float], keys: Sequence[str], vs: str | None) -> None:
+        ratio = ratios.get(vs, {}) if vs else {}
+        met = [ratio[k] <= ratio["goal"] for k in ("train", "plan") if k in ratio]
+        rows.append([name, *("" if figs.get(k) is None else num(figs[k]) for k in keys),
+                     *("" if ratio.get(k) is None else num(ratio[k]) for k in ("train", "plan")),
+                     f"<= {ratio['goal']:g} {'met' if all(met) else 'missed'}" if met else ""])
+
+    direct = ("train_step_us_random", "train_step_us_mixed", "plan_step_us")
+    figs = r["backends"]
+    row("float", figs.get("float", {}), direct, "float64 direct / fused")
+    row("float factored", figs.get("float", {}),
+        ("train_step_us_factored", "", "plan_step_us_factored"), "factored / fused factored")
+    for name, f in figs.items():
+        if name != "float":
+            row(name, f, direct, f"{name} / float64 direct")
+    fused = ("train_step_us_fused", "", "plan_step_us_fused")
+    row("yardstick (fused)", r["yardstick"], fused, None)
+    row("yardstick factored", r["yardstick"], ("train_step_us_fused_factored", "", ""), None)
+    print("\n".join("  " + line for line in table(rows, [
+        "backend", "train", "mixed", "plan", "train x", "plan x", "goal"])))
+    print("  mixed: training with mixed exploration; train x, plan x: over float's step, "
+          "and\n  float's over the hand-fused yardstick's (factored: the fused factored's)")
+    for sim, f in (r.get("robot") or {}).items():
+        print(f"  robot on {sim}: {num(f['train_actions_per_s'])} training and "
+              f"{num(f['plan_actions_per_s'])} planning actions/s")
+
+
+def show_sweep(r: dict[str, Any]) -> None:
+    """``sweep``: the experiment's table and where its files are."""
+    from cml_edge import experiments
+    from cml_edge.experiments.common import markdown_table
+
+    print(markdown_table(r["rows"], experiments.get(r["experiment"]).COLUMNS))
+    print(f"results: {r['out']}/results.json, results.csv, figure.png")

@@ -13,7 +13,8 @@ from numba import njit
 from cml_edge.bench.timing import ratios
 from cml_edge.cli import build_parser
 from cml_edge.cli.compiling import announce_compiles
-from cml_edge.cli.output import num, saturation, show_bench, show_fields
+from cml_edge.cli.output import num, saturation, show_fields
+from cml_edge.cli.tools import show_bench
 
 RUN = ["--seeds", 1, "--trials", 5, "--walks", 5, "--steps", 100]
 ROOT = Path(__file__).resolve().parents[2]
@@ -222,7 +223,7 @@ def test_the_compile_notice_appears_on_a_cold_cache_only(tmp_path):
 
 
 def test_the_breakpoint_view(capsys):
-    from cml_edge.cli.output import show_breakpoint
+    from cml_edge.cli.scenario import show_breakpoint
 
     show_breakpoint({
         "scenario": "paper", "backend": "crossbar", "backend_options": {}, "knob": "levels",
@@ -241,7 +242,7 @@ def test_the_breakpoint_view(capsys):
 
 
 def test_the_dqn_view(capsys):
-    from cml_edge.cli.output import show_dqn
+    from cml_edge.cli.dqn import show_dqn
 
     summary = {"success_rate": 0.5, "overhead_mean": 1.23456, "e_pos_mean": 2.5}
     show_dqn({"config": "simplified", "seeds": 2, "train_steps": 100000, **summary,
@@ -256,7 +257,7 @@ def test_the_dqn_view(capsys):
 
 
 def test_the_sweep_view(capsys):
-    from cml_edge.cli.output import show_sweep
+    from cml_edge.cli.tools import show_sweep
 
     show_sweep({"experiment": "convergence", "rows": [], "out": "runs/x"})
     lines = capsys.readouterr().out.splitlines()
