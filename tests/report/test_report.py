@@ -214,3 +214,28 @@ def test_breakpoint_row_bracketed():
     assert row["value"] in [e["value"] for e in row["evaluations"]]
     ok = {e["value"]: e["success_rate"] >= row["target"] for e in row["evaluations"]}
     assert ok[row["bracket"][0]] and not ok[row["bracket"][1]]
+
+
+def test_the_devices_cost_models_price_the_reference_report_to_the_last_bit():
+    """The energy and counted FLOPs of every CML system of the committed reference report,
+    recomputed from its counters with each device's declared cost model."""
+    from pathlib import Path
+
+    from cml_edge.backends import backend_spec
+    from cml_edge.report.build import counted_flops
+
+    path = Path(__file__).parents[2] / "hw_reports" / "reference" / "report.json"
+    systems = [s for s in json.loads(path.read_text())["systems"] if s["kind"] == "cml"]
+    assert len(systems) == 10
+    for s in systems:
+        device = backend_spec(s["backend"]).device
+        model = device.cost_model(device.make_config(
+            **{**device.backend_options(s["backend"]), **s["options"]}))
+        train, sources = ledger.energy_pj(model, s["train_counters"])
+        plan, _ = ledger.energy_pj(model, s["plan_counters"])
+        assert (None if train is None else train / 1e6) == s["energy_per_run_uj"], s["label"]
+        assert (None if plan is None else plan / s["plan_steps"] / 1e3) == \
+            s["energy_per_action_nj"], s["label"]
+        assert sources == s["energy_sources"], s["label"]
+        assert counted_flops(ledger.counted_macs(model, s["plan_counters"]),
+                             s["plan_steps"]) == s["inference_flops_counted"], s["label"]

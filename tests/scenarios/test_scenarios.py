@@ -155,7 +155,8 @@ def test_knobs_are_read_from_the_devices_and_set_their_fields():
         {"stuck_low": 0.25, "stuck_high": 0.25}, 0.0)
     assert knob_setting(loihi2, 6) == ({"num_weight_bits": 6}, 0.0)
     assert knob_setting(get_knob("drift_time", "crossbar"), 60) == ({}, 60.0)
-    with pytest.raises(InputError, match="unknown knob 'nope'; allowed: read_noise, .*bits"):
+    with pytest.raises(InputError,
+                       match="unknown knob 'nope'; allowed: bits, read_noise, .*drift_time"):
         get_knob("nope", "crossbar")
     with pytest.raises(InputError, match="knob 'levels' does not apply to the fixed device; "
                                          "its knobs: bits, drift_time"):
