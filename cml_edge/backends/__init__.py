@@ -1,14 +1,16 @@
 """The synaptic arrays and their registry: one :class:`DeviceSpec` per device.
 
-Each device lives in one folder (``floating/``, ``fixed/``, ``crossbar/``) and declares
-itself in a ``DEVICE`` there (:class:`~cml_edge.backends.device.DeviceSpec`: its array
-class and kernels, config, backend names, presets, cost model, report systems). The
-line :data:`DEVICE_PACKAGES` below registers them; everything else is derived from the
-registry: :data:`BACKENDS` (what ``--backend NAME`` selects), ``make_array``,
-``array_from_state_dict``, the command-line options (:mod:`cml_edge.cli.args`), the
-budget's technology and the report's systems. What the devices share (the seam, the
-parameter record, config fields, fixed-point helpers) sits beside this file; how to add
-a device: README.md here.
+Each device lives in one folder (``floating/``, ``fixed/``, ``crossbar/``, ``loihi2/``)
+and declares itself in a ``DEVICE`` there (:class:`~cml_edge.backends.device.DeviceSpec`:
+its array class and kernels, config, backend names, presets, break-point knobs, cost
+model, report entries). The line :data:`DEVICE_PACKAGES` below registers them;
+everything else is derived from the registry: :data:`BACKENDS` (what ``--backend NAME``
+selects), ``make_array``, ``array_from_state_dict``, the command-line options
+(:mod:`cml_edge.cli.args`), the preset expansion every caller uses
+(:func:`configurations`), the knobs of the break-point finder, the budget's cost models
+and the report's systems, sweeps and break points. :func:`check_device` holds a device
+to the contract. What the devices share (the seam, the parameter record, config fields,
+fixed-point helpers) sits beside this file; how to add a device: README.md here.
 
 ``make_array(name, W, seed=..., index=...)`` programs a float matrix into the named
 backend.
@@ -16,14 +18,24 @@ backend.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from importlib import import_module
 from typing import Any
 
 import numpy as np
 
+from cml_edge.backends import contract
 from cml_edge.backends.base import SynapticArray
-from cml_edge.backends.device import Backend, DeviceSpec
+from cml_edge.backends.contract import DeviceContractError
+from cml_edge.backends.device import (
+    Backend,
+    Configuration,
+    CostModel,
+    DeviceSpec,
+    Knob,
+    Report,
+)
 from cml_edge.backends.dispatch import register, unregister
 from cml_edge.errors import InputError
 
@@ -109,12 +121,59 @@ def array_from_state_dict(d: dict[str, np.ndarray]) -> SynapticArray:
     return DEVICES[kind].array_class.from_state_dict(d)
 
 
-def report_systems() -> list[tuple[str, str, dict[str, Any]]]:
+def configurations(names: Iterable[str] | None = None, presets: bool = True
+                   ) -> list[Configuration]:
+    """(label, backend, options) of each name (every registered backend when None), the
+    one preset expansion of ``cml-edge bench``, ``cml-edge sweep backends`` and the
+    report: ``crossbar:pcm`` is that preset, ``crossbar`` each preset when ``presets``
+    (labelled ``crossbar-pcm``...), any other name itself
+    (:meth:`DeviceSpec.configurations`). InputError naming an unknown backend or preset."""
+    return [c for name in (BACKENDS if names is None else names)
+            for c in backend_spec(name.partition(":")[0]).device.configurations(name, presets)]
+
+
+def report_systems() -> list[Configuration]:
     """The systems of the budget report, (label, backend, options), device by device."""
-    return [(label, backend, dict(options)) for device in DEVICES.values()
-            for label, backend, options in device.report]
+    return [c for device in DEVICES.values() for c in device.report_systems()]
 
 
-__all__ = ["BACKENDS", "DEVICES", "Backend", "BackendSpec", "DeviceSpec", "SynapticArray",
-           "array_from_state_dict", "backend_spec", "device_of", "make_array",
-           "register_device", "report_systems", "unregister_device"]
+def report_sweeps() -> list[tuple[str, str, str, dict[str, Any]]]:
+    """The report's precision sweeps, (figure, label, backend, options), device by device."""
+    return [s for device in DEVICES.values() for s in device.report_sweeps()]
+
+
+def report_breakpoints() -> list[tuple[str, str, dict[str, Any], str]]:
+    """The report's break points, (label, backend, options, knob): each device's in the
+    order it declares them, the devices with the most break points first (the crossbar's
+    physics leads the table), the others in registry order."""
+    devices = sorted(DEVICES.values(), key=lambda d: -len(d.report_breakpoints()))
+    return [b for device in devices for b in device.report_breakpoints()]
+
+
+def check_device(device: DeviceSpec | str) -> None:
+    """Hold a device (its spec, or a registered device's name) to the contract every
+    device keeps (:mod:`cml_edge.backends.contract`: its config, knobs and cost model,
+    the update rule, zero factors, the ``state_dict`` round trip, the compiled seam
+    against the Python methods, the counters), as Gymnasium's ``check_env`` holds an
+    environment. A spec not registered is registered for the check and removed after it.
+    :class:`~cml_edge.backends.contract.DeviceContractError` naming the device, the
+    configuration and the broken rule."""
+    if isinstance(device, str):
+        if device not in DEVICES:
+            raise InputError(f"unknown device {device!r}; known: {', '.join(DEVICES)}")
+        device = DEVICES[device]
+    if DEVICES.get(device.name) is device:
+        contract.check(device)
+        return
+    register_device(device)
+    try:
+        contract.check(device)
+    finally:
+        unregister_device(device)
+
+
+__all__ = ["BACKENDS", "DEVICES", "Backend", "BackendSpec", "CostModel", "DeviceContractError",
+           "DeviceSpec", "Knob", "Report", "SynapticArray", "array_from_state_dict",
+           "backend_spec", "check_device", "configurations", "device_of", "make_array",
+           "register_device", "report_breakpoints", "report_sweeps", "report_systems",
+           "unregister_device"]

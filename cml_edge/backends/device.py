@@ -3,18 +3,29 @@
 The registry (:mod:`cml_edge.backends`) holds one ``DeviceSpec`` per device and derives
 from them everything the rest of the package asks about devices: the backend names
 ``--backend`` accepts and their options, the command-line options (from the config
-fields, :mod:`cml_edge.cli.args`), the cost model of the hardware budget
-(:func:`cml_edge.costs.ledger.technology`) and the systems of the budget report.
+fields, :mod:`cml_edge.cli.args`), the configurations a run expands a name into
+(:meth:`DeviceSpec.configurations`), the knobs the break-point finder sweeps
+(:class:`Knob`), the cost model of the hardware budget (:class:`CostModel`) and what the
+reference report runs on the device (:class:`Report`). Nothing outside a device's folder
+names its knobs, cost model, presets or report entries.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from cml_edge.backends.dispatch import Kernels
-from cml_edge.backends.fields import per_matrix_options, resolve
+from cml_edge.backends.fields import parse_setting, per_matrix_options, resolve
+from cml_edge.errors import InputError
+
+Configuration = tuple[str, str, dict[str, Any]]
+"""(label, backend, options): a backend name and the options a run gives it, labelled."""
+Entry = str | tuple[str, str, Mapping[str, Any]]
+"""A configuration as a device's :class:`Report` names it: a backend name (``crossbar``:
+one configuration per preset it takes, labelled ``crossbar-pcm``...; ``crossbar:pcm``:
+that preset; ``fixed``: the name itself) or an explicit (label, backend, options)."""
 
 
 @dataclass(frozen=True)
@@ -33,8 +44,107 @@ class Backend:
 
 
 @dataclass(frozen=True)
+class Knob:
+    """A device setting a break point sweeps (:mod:`cml_edge.scenarios.breakpoint`).
+
+    ``field``: the config field it sets, or the name of a compound whose ``parts`` are the
+    fields it sets, each to value / len(parts) (the crossbar's ``stuck``: half the
+    fraction at ``stuck_low``, half at ``stuck_high``). ``lo`` .. ``hi``: the default
+    range, in the field's unit, valid on every configuration of the device that leaves
+    the field free (:func:`cml_edge.backends.check_device` builds both ends). ``good``:
+    ``low`` or ``high``, the end where the device is closer to ideal. ``integer``: the
+    field takes integers (the grid keeps the distinct integers); ``log``: the grid is
+    evenly spaced on a log scale (``lo`` > 0).
+    """
+
+    name: str
+    field: str
+    lo: float
+    hi: float
+    good: str
+    integer: bool = False
+    log: bool = False
+    doc: str = ""
+    parts: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.good not in ("low", "high"):
+            raise ValueError(f"knob {self.name!r}: good {self.good!r} is not 'low' or 'high'")
+        if not self.lo < self.hi:
+            raise ValueError(f"knob {self.name!r}: range {self.lo!r}..{self.hi!r} is empty")
+        if self.log and self.lo <= 0:
+            raise ValueError(f"knob {self.name!r}: a log range starts above 0 (lo {self.lo!r})")
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """The config fields the knob sets."""
+        return self.parts or (self.field,)
+
+    def setting(self, value: float) -> dict[str, Any]:
+        """The field values that set the knob to ``value``."""
+        if not self.parts:
+            return {self.field: value}
+        return {name: value / len(self.parts) for name in self.parts}
+
+
+@dataclass(frozen=True)
+class CostModel:
+    """Which sourced per-operation constants apply to which of a device's counters.
+
+    Energy = (sum of ``mac_counters``) x ``mac`` + (sum of ``byte_counters``) x ``byte``
+    + (sum of ``pulse_counters``) x ``pulse``, each term only where its constant is named;
+    the constants are keys of :data:`cml_edge.costs.ledger.COSTS`, which holds each figure
+    with its source (:func:`cml_edge.costs.ledger.energy_pj`). ``mac`` None: no sourced
+    figure for the device's MACs, and it is not costed (its counters still say what it
+    did). ``name``: the technology the budget reports (``int8``, ``analog``...).
+    ``mac_counters`` are also the multiply-accumulates a planning step's counted FLOPs
+    come from, and ``pulse_counters`` the write pulses a relearning is charged.
+    """
+
+    name: str
+    mac: str | None = None
+    mac_counters: tuple[str, ...] = ()
+    byte: str | None = None
+    byte_counters: tuple[str, ...] = ()
+    pulse: str | None = None
+    pulse_counters: tuple[str, ...] = ()
+
+    @property
+    def counters(self) -> tuple[str, ...]:
+        """Every counter the model reads."""
+        return self.mac_counters + self.byte_counters + self.pulse_counters
+
+
+@dataclass(frozen=True)
+class Report:
+    """What the reference report (``cml-edge report``) runs on a device, each as an
+    :data:`Entry` (a backend name, expanded by :meth:`DeviceSpec.configurations`, or an
+    explicit (label, backend, options)).
+
+    - ``systems``: the systems of the main table (the protocol, the ledger, the energy)
+      and of the scorecard (every scenario);
+    - ``sweeps``: (figure, entry): the precision sweeps drawn as figures;
+    - ``breakpoints``: (entry, knob names): the break points run on each configuration,
+      in order, on the paper scenario; a name is one of the device's :class:`Knob` or a
+      generic knob of :mod:`cml_edge.scenarios.breakpoint` (``drift_time``).
+    """
+
+    systems: tuple[Entry, ...] = ()
+    sweeps: tuple[tuple[str, Entry], ...] = ()
+    breakpoints: tuple[tuple[Entry, tuple[str, ...]], ...] = ()
+
+
+RuleFidelity = tuple[float, tuple[float, float]]
+RULE_FIDELITY: RuleFidelity = (0.8, (0.6, 1.4))
+"""How closely a burst of updates must follow the local rule (the contract,
+:mod:`cml_edge.backends.contract`): the least correlation of the weights' change with
+lr post pre^T, and the range of its projection on it (1: exactly the rule's size)."""
+
+
+@dataclass(frozen=True)
 class DeviceSpec:
-    """A device: its array type and kernels, its config, names, presets and costs.
+    """A device: its array type and kernels, its config, names, presets, knobs, costs and
+    report entries.
 
     - ``array_class``: the :class:`~cml_edge.backends.base.SynapticArray` subclass; its
       ``name`` is the device's name (saved in model files as ``__backend__``);
@@ -44,10 +154,13 @@ class DeviceSpec:
       options ``make_array`` takes and the command line sets);
     - ``backends``: backend name -> :class:`Backend`;
     - ``presets``: preset name -> field values;
-    - ``technology``: the budget's cost model of an array (a key of
-      :data:`cml_edge.costs.ledger.TECHNOLOGIES`), as a name or a function of the array's
-      config; None: not costed;
-    - ``report``: the systems of the budget report, (label, backend, options).
+    - ``knobs``: the settings a break point can sweep (:class:`Knob`);
+    - ``cost``: the budget's :class:`CostModel`, or a function of the array's config
+      giving it (float64 and float32 differ); None: not costed;
+    - ``report``: what the reference report runs on the device (:class:`Report`);
+    - ``rule_fidelity``: preset -> (least correlation, projection range) of an update
+      burst against the local rule, where a calibrated device's physics departs from the
+      default :data:`RULE_FIDELITY` (measured; the contract holds it to this).
     """
 
     array_class: type
@@ -55,13 +168,25 @@ class DeviceSpec:
     config_class: type
     backends: Mapping[str, Backend]
     presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
-    technology: str | Callable[[Any], str] | None = None
-    report: tuple[tuple[str, str, Mapping[str, Any]], ...] = ()
+    knobs: tuple[Knob, ...] = ()
+    cost: CostModel | Callable[[Any], CostModel] | None = None
+    report: Report = field(default_factory=Report)
+    rule_fidelity: Mapping[str, RuleFidelity] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():
             if b.preset is not None and b.preset not in self.presets:
                 raise ValueError(f"backend {name!r} names an unknown preset {b.preset!r}")
+        names = [k.name for k in self.knobs]
+        if len(set(names)) != len(names):
+            raise ValueError(f"device {self.name!r} declares a knob twice: {names}")
+        unknown = set(self.rule_fidelity) - set(self.presets)
+        if unknown:
+            raise ValueError(f"device {self.name!r}: rule_fidelity names an unknown preset "
+                             f"{sorted(unknown)[0]!r}")
+        self.report_systems()  # every entry names a backend (and preset) of the device
+        self.report_sweeps()
+        self.report_breakpoints()
 
     @property
     def name(self) -> str:
@@ -72,6 +197,7 @@ class DeviceSpec:
         """The options that take one value per matrix, and the fields that hold them."""
         return per_matrix_options(self.config_class)
 
+    # backend names and presets -------------------------------------------------------
     def fixes(self, backend: str) -> dict[str, Any]:
         """The field values the backend name ``backend`` fixes (int8: bits 8)."""
         b = self.backends[backend]
@@ -92,12 +218,98 @@ class DeviceSpec:
         """Whether some backend of the device takes the ``preset`` option."""
         return any(not b.fixed and b.preset is not None for b in self.backends.values())
 
+    def configurations(self, entry: Entry, presets: bool = True) -> list[Configuration]:
+        """The configurations (label, backend, options) of ``entry``: the preset expansion
+        of every caller (``cml-edge bench``, ``cml-edge sweep backends``, the report).
+
+        A name ``backend:preset`` is that preset (labelled ``backend-preset``, options
+        ``{"preset": preset}``); a name of a backend that takes a ``preset`` option is one
+        configuration per preset when ``presets``, else the name alone (its default
+        preset); any other name is itself, with no options. An explicit (label, backend,
+        options) is kept. InputError naming an unknown backend or preset."""
+        if not isinstance(entry, str):
+            label, backend, options = entry
+            self._backend(backend)
+            return [(label, backend, dict(options))]
+        backend, sep, preset = entry.partition(":")
+        self._backend(backend)
+        takes = self.default_preset(backend) is not None
+        if sep:
+            if not takes or preset not in self.presets:
+                allowed = ", ".join(self.presets) if takes else "none (it takes no preset)"
+                raise InputError(f"unknown preset {preset!r} for {backend!r}; allowed: "
+                                 f"{allowed}")
+            return [(f"{backend}-{preset}", backend, {"preset": preset})]
+        if takes and presets:
+            return [(f"{backend}-{p}", backend, {"preset": p}) for p in self.presets]
+        return [(backend, backend, {})]
+
+    def _backend(self, backend: str) -> None:
+        if backend not in self.backends:
+            raise InputError(f"device {self.name!r} has no backend {backend!r}; its "
+                             f"backends: {', '.join(self.backends)}")
+
+    # configs ------------------------------------------------------------------------
     def make_config(self, **options: Any) -> Any:
         """The config of ``options`` (a ``preset`` name and field values)."""
         return resolve(self.config_class, dict(self.presets), options, self.name)
 
-    def technology_of(self, array: Any) -> str | None:
-        """The cost model of ``array`` (None: the device declares none)."""
-        if self.technology is None or isinstance(self.technology, str):
-            return self.technology
-        return self.technology(array.config)
+    def given(self, backend: str, options: Mapping[str, Any] | None = None,
+              settings: Sequence[str] = (), shown: Mapping[str, str] | None = None
+              ) -> dict[str, Any]:
+        """The options given for ``backend``: ``options`` (``shown`` says how each was
+        given, for the messages) and the ``--set field=value`` texts ``settings``
+        (:func:`cml_edge.backends.fields.parse_setting`, the one parser), checked against
+        the fields the backend name fixes and validated now, before any work. InputError
+        naming the option, the value and what to use instead."""
+        options, shown = dict(options or {}), dict(shown or {})
+        for text in settings:
+            name, value = parse_setting(self.config_class, text, self.name)
+            options[name] = value
+            shown[name] = f"--set {text.strip()}"
+        for name, fixed in self.fixes(backend).items():
+            if name in options and options[name] != fixed:
+                how = shown.get(name, f"{name} {options[name]}")
+                raise InputError(f"{how} conflicts with --backend {backend} ({name} {fixed}); "
+                                 f"{self._instead(name, options[name], how)}")
+        self.make_config(**{**self.backend_options(backend), **options})
+        return options
+
+    def _instead(self, name: str, value: Any, how: str) -> str:
+        """What to use instead of a backend name that fixes ``name`` to another value."""
+        for backend in self.backends:
+            if self.fixes(backend).get(name) == value:
+                return f"use --backend {backend}"
+        for backend in self.backends:
+            if name not in self.fixes(backend):
+                return f"use --backend {backend} {how}"
+        return f"allowed: {name} as the backend fixes it"
+
+    # knobs, costs, report -------------------------------------------------------------
+    def knob(self, name: str) -> Knob | None:
+        """The device's knob ``name`` (None: it declares none of that name)."""
+        return next((k for k in self.knobs if k.name == name), None)
+
+    def cost_model(self, config: Any) -> CostModel | None:
+        """The cost model of an array of ``config`` (None: the device declares none)."""
+        if self.cost is None or isinstance(self.cost, CostModel):
+            return self.cost
+        return self.cost(config)
+
+    def report_systems(self) -> list[Configuration]:
+        """The report's systems on this device (:class:`Report`)."""
+        return [c for entry in self.report.systems for c in self.configurations(entry)]
+
+    def report_sweeps(self) -> list[tuple[str, str, str, dict[str, Any]]]:
+        """The report's sweeps on this device: (figure, label, backend, options)."""
+        return [(figure, *c) for figure, entry in self.report.sweeps
+                for c in self.configurations(entry)]
+
+    def report_breakpoints(self) -> list[tuple[str, str, dict[str, Any], str]]:
+        """The report's break points on this device: (label, backend, options, knob)."""
+        return [(*c, knob) for entry, knobs in self.report.breakpoints
+                for c in self.configurations(entry) for knob in knobs]
+
+    def rule_fidelity_of(self, options: Mapping[str, Any]) -> RuleFidelity:
+        """How closely a configuration given ``options`` must follow the local rule."""
+        return self.rule_fidelity.get(options.get("preset"), RULE_FIDELITY)

@@ -17,7 +17,9 @@ know about the field, so that no device writes code for it:
   value does, as a derived quantity).
 
 A preset is a dict of field values; :func:`resolve` applies one (named by the
-``preset`` option) and then the given fields.
+``preset`` option) and then the given fields. :func:`parse_setting` is the one parser of
+``--set field=value`` (the command line's and ``cml-edge bench``'s, through
+:meth:`cml_edge.backends.device.DeviceSpec.given`).
 """
 
 from __future__ import annotations

@@ -11,10 +11,11 @@ shared with other jobs, their load does not enter the figures or their ratios):
 - for the float64 array also ``train_step_us_factored``, ``plan_step_us_factored`` and
   ``train_total_s_factored`` (the whole 100 x 900 training).
 
-A backend name may carry a preset, ``crossbar:reram`` (``presets=True`` benches every
-preset of a backend that takes one), and ``settings`` (``--set field=value``) change device
-fields of every named backend, whose keys then list them (``crossbar:pcm (out_noise=0)``:
-the preset without its read noise, against the same float64 denominator). Every run also
+A backend name may carry a preset, ``crossbar:reram`` (:func:`bench_names` with
+``presets=True`` names every preset of a backend that takes one), and ``settings``
+(``--set field=value``) change device fields of every named backend, whose keys then list
+them (``crossbar:pcm (out_noise=0)``: the preset without its read noise, against the same
+float64 denominator). Every run also
 times the yardstick (:mod:`cml_edge.bench.fused`: the float64 step hand-fused into a plain
 Numba function, bit-identical to the direct path) and gives, measured in the same run, the
 ``ratios``:
@@ -37,12 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.backends import backend_spec
-from cml_edge.backends.fields import parse_setting
+from cml_edge.backends import backend_spec, configurations
 from cml_edge.bench.fused import FusedLearner, FusedScorer, fused_factored_of
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.step import FactoredScorer, SeamScorer
-from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.exploration import GridExplorer
 from cml_edge.grid.metrics import draw_pairs
@@ -71,29 +70,12 @@ SCORERS: dict[str, Callable[[CML], Any]] = {
 
 
 def parse_name(name: str, settings: Sequence[str] = ()) -> tuple[str, dict[str, Any]]:
-    """``backend`` or ``backend:preset`` -> (backend, options), with ``settings`` (``--set``
-    texts, ``field=value``) applied; InputError if anything is unknown or contradicts the
-    backend name."""
-    backend, _, preset = name.partition(":")
-    spec = backend_spec(backend)
-    options: dict[str, Any] = {}
-    if preset:
-        presets = spec.device.presets if spec.device.default_preset(backend) else {}
-        if preset not in presets:
-            raise InputError(f"unknown preset {preset!r} for {backend!r}; allowed: "
-                             f"{', '.join(presets) or 'none (it takes no preset)'}")
-        options["preset"] = preset
-    if settings:
-        device = spec.device
-        fixed = device.fixes(backend)
-        for text in settings:
-            field, value = parse_setting(device.config_class, text, device.name)
-            if field in fixed and fixed[field] != value:
-                raise InputError(f"--set {text.strip()} conflicts with {backend} ({field} "
-                                 f"{fixed[field]})")
-            options[field] = value
-        device.make_config(**{**spec.options, **options})  # validated now, before timing
-    return backend, options
+    """``backend`` or ``backend:preset`` -> (backend, options)
+    (:func:`cml_edge.backends.configurations`), with ``settings`` (``--set`` texts,
+    ``field=value``) applied; InputError if anything is unknown or contradicts the backend
+    name (:meth:`~cml_edge.backends.device.DeviceSpec.given`)."""
+    ((_, backend, options),) = configurations([name], presets=False)
+    return backend, backend_spec(backend).device.given(backend, options, settings)
 
 
 def label(name: str, settings: Sequence[str] = ()) -> str:
@@ -101,16 +83,12 @@ def label(name: str, settings: Sequence[str] = ()) -> str:
     return f"{name} ({', '.join(s.strip() for s in settings)})" if settings else name
 
 
-def expand_presets(names: Sequence[str]) -> list[str]:
-    """Each name that takes a preset and names none becomes one name per preset."""
-    out = []
-    for name in names:
-        spec = backend_spec(name.partition(":")[0])
-        if ":" in name or spec.device.default_preset(name) is None:
-            out.append(name)
-        else:
-            out.extend(f"{name}:{p}" for p in spec.device.presets)
-    return out
+def bench_names(names: Sequence[str], presets: bool = False) -> list[str]:
+    """The names to time: each as given, or, with ``presets``, one ``backend:preset`` per
+    preset of a backend that takes one and names none
+    (:func:`cml_edge.backends.configurations`)."""
+    return [f"{backend}:{options['preset']}" if "preset" in options else backend
+            for _, backend, options in configurations(names, presets)]
 
 
 def _median_time(run: Callable[[int], float], repeats: int) -> float:

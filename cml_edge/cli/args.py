@@ -16,7 +16,7 @@ from typing import Any
 from tqdm import tqdm
 
 from cml_edge.backends import BACKENDS, DEVICES, DeviceSpec, backend_spec
-from cml_edge.backends.fields import field_names, parse_setting, scalar_kind
+from cml_edge.backends.fields import field_names, scalar_kind
 from cml_edge.errors import InputError
 
 
@@ -150,8 +150,10 @@ def add_backend(p: argparse.ArgumentParser) -> None:
 
 
 def backend_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The options given for ``--backend``'s device, validated now (before any training);
-    refuses another device's flag and a value that contradicts the backend name."""
+    """The options given for ``--backend``'s device (its flags, and ``--set``, parsed by
+    :func:`cml_edge.backends.fields.parse_setting`), validated now, before any training
+    (:meth:`~cml_edge.backends.device.DeviceSpec.given`); refuses another device's flag
+    and a value that contradicts the backend name."""
     spec = backend_spec(args.backend)
     device = spec.device
     assert device is not None
@@ -175,27 +177,7 @@ def backend_options(args: argparse.Namespace) -> dict[str, Any]:
         options[target] = value
         shown[target] = flag if value is True else \
             f"{flag} {' '.join(map(str, value)) if isinstance(value, list) else value}"
-    for text in getattr(args, SET_DEST, None) or []:
-        name, value = parse_setting(device.config_class, text, device.name)
-        options[name] = value
-        shown[name] = f"--set {text.strip()}"
-    for name, fixed in device.fixes(args.backend).items():
-        if name in options and options[name] != fixed:
-            raise InputError(f"{shown[name]} conflicts with --backend {args.backend} "
-                             f"({name} {fixed}); {_instead(device, name, options[name], shown)}")
-    device.make_config(**{**spec.options, **options})  # validate now, as make_array will
-    return options
-
-
-def _instead(device: DeviceSpec, name: str, value: Any, shown: dict[str, str]) -> str:
-    """What to use instead of a backend name that fixes ``name`` to another value."""
-    for backend in device.backends:
-        if device.fixes(backend).get(name) == value:
-            return f"use --backend {backend}"
-    for backend in device.backends:
-        if name not in device.fixes(backend):
-            return f"use --backend {backend} {shown[name]}"
-    return f"allowed: {name} as the backend fixes it"
+    return device.given(args.backend, options, getattr(args, SET_DEST, None) or [], shown)
 
 
 def add_chip_flags(p: argparse.ArgumentParser) -> argparse._ArgumentGroup:

@@ -18,7 +18,7 @@ from cml_edge.cli.args import (
 )
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
-from cml_edge.scenarios.breakpoint import KNOBS, MIN_SEEDS, find_breakpoint
+from cml_edge.scenarios.breakpoint import MIN_SEEDS, find_breakpoint, knob_names
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
 from cml_edge.scenarios.runner import run_scenario
 
@@ -50,7 +50,7 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("breakpoint", help="the knob value where a scenario's success "
                        "crosses a target (bisection on a seeded grid)")
-    p.add_argument("--knob", required=True, help=f"device setting: {', '.join(KNOBS)}")
+    p.add_argument("--knob", required=True, help=f"device setting: {', '.join(knob_names())}")
     p.add_argument("--scenario", required=True, help=f"scenario: {', '.join(SCENARIOS)}")
     p.add_argument("--target", type=finite_float, default=0.95,
                    help="success rate to cross (0.95)")

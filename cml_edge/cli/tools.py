@@ -94,13 +94,9 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
-    from cml_edge.bench.timing import expand_presets, parse_name, run_bench
+    from cml_edge.bench.timing import bench_names, run_bench
 
-    names = args.backends or sorted(BACKENDS)
-    for name in names:
-        parse_name(name)
-    if args.presets:
-        names = expand_presets(names)
+    names = bench_names(args.backends or sorted(BACKENDS), args.presets)
     result = run_bench(names, repeats=args.repeats, progress=Progress("bench"),
                        settings=args.settings)
     if args.robot:

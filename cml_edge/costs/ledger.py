@@ -4,8 +4,10 @@ Nothing here is typed in by hand. Counts come from the model's shapes (parameter
 paper's FLOP formulas of section 2.4.3), from the counters an emulated array kept while
 it trained and planned (MACs, bytes, cells changed, pulses), and from the DQN's
 layer sizes and training settings. Energy is counted operation by operation, and each
-per-operation constant carries its source (../shared/reference/crossbar.md). An
-operation with no sourced constant is reported as not costed, never guessed.
+per-operation constant carries its source (../shared/reference/crossbar.md). Which
+constants apply to which counters of a device is its cost model, declared in its folder
+(:class:`~cml_edge.backends.device.CostModel`). An operation with no sourced constant is
+reported as not costed, never guessed.
 
 Two schedules of the CML's per-walk training are ledgered:
 
@@ -19,6 +21,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from cml_edge.backends import device_of
+from cml_edge.backends.device import CostModel
 from cml_edge.core.cml import CML
 from cml_edge.errors import InputError
 
@@ -49,72 +53,38 @@ COSTS: dict[str, Cost] = {
 }
 
 
-@dataclass(frozen=True)
-class CostModel:
-    """Which constants of :data:`COSTS` apply to an array technology, and to which counters.
-
-    Energy = (sum of ``mac_counters``) x ``mac`` + (sum of ``byte_counters``) x ``byte``
-    + (sum of ``pulse_counters``) x ``pulse``, each term only where its constant is named.
-    ``mac`` None: no sourced figure, the technology is not costed.
-    """
-
-    mac: str | None
-    mac_counters: tuple[str, ...] = ("macs", "update_macs")
-    byte: str | None = "sram_byte"
-    byte_counters: tuple[str, ...] = ("bytes_read", "bytes_written")
-    pulse: str | None = None
-    pulse_counters: tuple[str, ...] = ()
-
-
 NOT_COSTED = "not costed"
-TECHNOLOGIES: dict[str, CostModel] = {
-    "fp64": CostModel(None),  # no sourced float64 figure: not costed
-    "fp32": CostModel("fp32_mac"),
-    "int8": CostModel("int8_mac"),
-    "int16": CostModel("int32_mac"),
-    # Loihi 2: no per-operation energy of its synaptic ops and learning engine is public in
-    # this form; the int8 MAC (8-bit weights) and SRAM byte are the closest sourced figures
-    "loihi2": CostModel("int8_mac"),
-    # analog MACs (the figure includes DAC/ADC conversions) and one write pulse per device
-    # pulse; no SRAM traffic. The crossbar counts the MACs of drift-compensation
-    # calibration reads and of bound management's re-reads in analog_macs, and the RESET
-    # and SET pulses of its pair refreshes as refresh_pulses
-    "analog": CostModel("analog_mac", ("analog_macs",), None, (), "write_pulse",
-                        ("device_pulses", "refresh_pulses")),
-    NOT_COSTED: CostModel(None),  # a device that declares no technology
-}
-"""The cost models a device can declare (``DeviceSpec.technology``)."""
+"""The technology of a device that declares no cost model."""
+
+
+def cost_model(cml: CML) -> CostModel:
+    """The cost model of the CML's arrays, as their device declares it
+    (:attr:`cml_edge.backends.device.DeviceSpec.cost`); one named :data:`NOT_COSTED`, with
+    no counters, for a device that declares none."""
+    model = device_of(cml.W_q).cost_model(cml.W_q.config)
+    return CostModel(NOT_COSTED) if model is None else model
 
 
 def technology(cml: CML) -> str:
-    """The cost model of the CML's arrays, as their device declares it (a key of
-    :data:`TECHNOLOGIES`; ``not costed`` for a device that declares none). ValueError if
-    a device declares a technology that has no cost model here."""
-    from cml_edge.backends import device_of
-
-    tech = device_of(cml.W_q).technology_of(cml.W_q)
-    if tech is None:
-        return NOT_COSTED
-    if tech not in TECHNOLOGIES:
-        raise InputError(f"array kind {cml.W_q.name!r} declares technology {tech!r}, which "
-                         f"has no cost model (known: {', '.join(TECHNOLOGIES)})")
-    return tech
+    """The technology the budget reports for the CML's arrays: their cost model's name."""
+    return cost_model(cml).name
 
 
-def energy_pj(tech: str, counters: dict[str, int]) -> tuple[float | None, list[str]]:
-    """Energy of the operations in ``counters`` on ``tech``, and the sources used.
-
-    Digital arrays: MACs plus SRAM bytes moved. Analog arrays: analog MACs (whose
-    figure includes DAC/ADC conversions) plus one write pulse per device pulse
-    (:data:`TECHNOLOGIES`). None when the technology has no sourced MAC figure (float64,
-    not costed); ValueError for a technology with no cost model.
+def energy_pj(model: CostModel, counters: dict[str, int]) -> tuple[float | None, list[str]]:
+    """Energy of the operations in ``counters`` under the device's cost ``model``, and the
+    sources of the constants used: (sum of its MAC counters) x its MAC constant, plus its
+    byte and pulse terms where it names constants (:class:`~cml_edge.backends.device.
+    CostModel`; digital arrays: MACs and SRAM bytes moved; analog arrays: analog MACs,
+    whose figure includes DAC/ADC conversions, and write pulses). None when the model
+    names no sourced MAC figure (float64, not costed); InputError for a constant that is
+    not in :data:`COSTS`.
     """
-    if tech not in TECHNOLOGIES:
-        raise InputError(f"technology {tech!r} has no cost model (known: "
-                         f"{', '.join(TECHNOLOGIES)})")
-    model = TECHNOLOGIES[tech]
     if model.mac is None:
         return None, []
+    unknown = [k for k in (model.mac, model.byte, model.pulse) if k is not None and k not in COSTS]
+    if unknown:
+        raise InputError(f"cost model {model.name!r} names {unknown[0]!r}, which is no sourced "
+                         f"constant (known: {', '.join(COSTS)})")
     mac = COSTS[model.mac]
     total = sum(counters.get(k, 0) for k in model.mac_counters) * mac.pj
     sources = [mac.source]
@@ -123,6 +93,11 @@ def energy_pj(tech: str, counters: dict[str, int]) -> tuple[float | None, list[s
             total = total + sum(counters.get(k, 0) for k in names) * COSTS[key].pj
             sources.append(COSTS[key].source)
     return total, sources
+
+
+def counted_macs(model: CostModel, counters: dict[str, int]) -> int:
+    """The multiply-accumulates in ``counters``: the sum of the model's MAC counters."""
+    return sum(counters.get(k, 0) for k in model.mac_counters)
 
 
 # the CML ---------------------------------------------------------------------------

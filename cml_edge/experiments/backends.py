@@ -2,19 +2,19 @@
 
     cml-edge sweep backends
 
-For each name in :data:`cml_edge.backends.BACKENDS` (and each preset of an array class
-that has ``PRESETS``): ten CMLs trained on the empty 30 x 30 arena on that array,
-direct compiled path (float64 uses the factored path, which is exact for it), random
-exploration, evaluated on 100 fixed pairs of the empty arena (paper planner, or
-``--planner``) and with 300 obstacles (escape planner). New arrays are picked up as
-they register.
+For each configuration of :func:`cml_edge.backends.configurations` (each registered
+backend name, each preset of a backend that takes one): ten CMLs trained on the empty
+30 x 30 arena on that array, direct compiled path (float64 uses the factored path, which
+is exact for it), random exploration, evaluated on 100 fixed pairs of the empty arena
+(paper planner, or ``--planner``) and with 300 obstacles (escape planner). New arrays are
+picked up as they register.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from cml_edge.backends import BACKENDS
+from cml_edge.backends import configurations
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
@@ -32,33 +32,13 @@ COLUMNS = ("config", "eval", "success_rate", "success_rate_connected", "e_pos_me
            "overhead_mean", "overhead_geodesic_mean")
 
 
-def backend_configs() -> list[tuple[str, str, dict[str, Any]]]:
-    """(config id, backend name, options) for each registered backend and preset."""
-    out = []
-    for name, spec in BACKENDS.items():
-        presets = getattr(spec.array_class, "PRESETS", None)
-        if presets is None:
-            try:
-                from importlib import import_module
-
-                mod = import_module(spec.array_class.__module__)
-                presets = getattr(mod, "PRESETS", None)
-            except ImportError:  # pragma: no cover
-                presets = None
-        if presets and "preset" in spec.options:
-            out += [(f"{name}-{p}", name, {"preset": p}) for p in presets]
-        else:
-            out.append((name, name, {}))
-    return out
-
-
 def tasks(seeds: int = DEFAULT_SEEDS, planner: str | None = None, map: str | None = None,
           scen: str | None = None) -> list[Task]:
     reject(NAME, map=map, scen=scen)
     evals = [eval_spec("arena30", planner=planner or "paper"),
              eval_spec("obst300-escape", obstacles=300, planner="escape")]
     configs = [(cid, {"backend": name, "backend_options": opts, "evals": evals})
-               for cid, name, opts in backend_configs()]
+               for cid, name, opts in configurations()]
     return make_tasks(configs, seeds)
 
 

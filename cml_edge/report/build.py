@@ -2,11 +2,15 @@
 
 Read top to bottom: :func:`build_report` trains and evaluates each system (one CML per
 seed on the paper's protocol), measures one extra model per system operation by
-operation (its counters while training and while planning), adds the DQN baseline
-from its results file, and returns one JSON-ready dict. :func:`write_report` renders
-``report.md`` and the figures from that dict alone, so every number in the markdown
-is a number of ``report.json``; it writes everything into a temporary folder and
-renames it into place, so an interrupted report leaves no half-written files.
+operation (its counters while training and while planning, priced by its device's cost
+model), adds the DQN baseline from its results file, runs the precision sweeps and the
+scorecard, and returns one JSON-ready dict. The systems, sweeps and break points are
+those the devices declare (:func:`cml_edge.backends.report_systems`,
+:func:`~cml_edge.backends.report_sweeps`, :mod:`cml_edge.report.scorecard`).
+:func:`write_report` renders ``report.md`` and the figures from that dict alone, so every
+number in the markdown is a number of ``report.json``; it writes everything into a
+temporary folder and renames it into place, so an interrupted report leaves no
+half-written files.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
-from cml_edge.backends import BACKENDS, report_systems
+from cml_edge.backends import BACKENDS, report_sweeps, report_systems
 from cml_edge.baselines import load_results
 from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.core.cml import CMLConfig
@@ -48,19 +52,6 @@ SCHEMA_VERSION = 2
 """2: the scorecard, break points and recovery curves."""
 N_EXAMPLES = 3
 
-# (label, backend, options): the systems of the main table, as each device declares them
-SYSTEMS: list[tuple[str, str, dict[str, Any]]] = report_systems()
-# precision sweeps drawn as figures: (figure, label, backend, options)
-SWEEPS: list[tuple[str, str, str, dict[str, Any]]] = [
-    *[("bits", f"{b} bits {r}", "fixed", {"bits": b, "rounding": r})
-      for r in ("stochastic", "nearest") for b in (16, 8, 6, 4)],
-    *[("levels", f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n})
-      for n in (4, 16, 64, 256)],
-    *[("read noise", f"pcm read_noise {x:g}", "crossbar", {"preset": "pcm", "read_noise": x})
-      for x in (0.05, 0.2, 0.5, 1.0)],
-]
-
-
 def _profile(quick: bool) -> dict[str, int]:
     return {"seeds": 2, "trials": 25, "sweep_seeds": 2} if quick else \
         {"seeds": 10, "trials": 100, "sweep_seeds": 5}
@@ -81,15 +72,11 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
     return {"example_paths": examples, "train_counters": run.train_counters,
             "plan_counters": run.eval_counters,
             "train_steps": config.walks * config.steps, "plan_steps": steps,
-            "train_wall_s": run.wall_s[-1], "technology": ledger.technology(cml),
+            "train_wall_s": run.wall_s[-1], "cost_model": ledger.cost_model(cml),
             "memory": ledger.cml_memory(cml, explore, 30),
             "factored": ledger.cml_factored_traffic(cml, config.walks, config.steps),
             "parameters": cml.parameter_count(),
             "inference_flops_formula": cml.inference_flops()}
-
-
-def _macs(counters: dict[str, int]) -> int:
-    return counters.get("macs", 0) + counters.get("analog_macs", 0)
 
 
 def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trials: int,
@@ -99,8 +86,9 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
     acc = run_protocol(backend, range(seeds), trials, epoch=1, **options)
     progress(f"{label}: operations")
     ops = measure_operations(backend, options)
-    e_train, e_sources = ledger.energy_pj(ops["technology"], ops["train_counters"])
-    e_plan, _ = ledger.energy_pj(ops["technology"], ops["plan_counters"])
+    model = ops["cost_model"]
+    e_train, e_sources = ledger.energy_pj(model, ops["train_counters"])
+    e_plan, _ = ledger.energy_pj(model, ops["plan_counters"])
     tc = ops["train_counters"]
     return {
         "label": label, "backend": backend, "options": options, "kind": "cml",
@@ -110,7 +98,8 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
         "epoch_steps": acc["epoch_walks"] * acc["steps"],
         "parameters": ops["parameters"],
         "inference_flops_formula": ops["inference_flops_formula"],
-        "inference_flops_counted": counted_flops(_macs(ops["plan_counters"]), ops["plan_steps"]),
+        "inference_flops_counted": counted_flops(
+            ledger.counted_macs(model, ops["plan_counters"]), ops["plan_steps"]),
         **ops["memory"],
         "train_steps": ops["train_steps"],
         "update_bytes_per_run_direct": tc.get("bytes_read", 0) + tc.get("bytes_written", 0),
@@ -205,8 +194,8 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     :mod:`cml_edge.report.scorecard`)."""
     t0 = time.perf_counter()
     prof = _profile(quick)
-    systems = [s for s in (SYSTEMS if systems is None else systems) if s[1] in BACKENDS]
-    sweeps = [s for s in (SWEEPS if sweeps is None else sweeps) if s[2] in BACKENDS]
+    systems = [s for s in (report_systems() if systems is None else systems) if s[1] in BACKENDS]
+    sweeps = [s for s in (report_sweeps() if sweeps is None else sweeps) if s[2] in BACKENDS]
     rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
             for label, backend, opts in systems]
     dqn, dqn_data = dqn_rows(Path(dqn_results))

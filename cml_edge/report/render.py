@@ -230,7 +230,7 @@ def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
                             va="bottom", fontsize=6)
             ax.set_xticks(range(len(sel)))
             ax.set_xticklabels([b["device"] for b in sel], rotation=60, fontsize=6)
-            if knob in ("levels", "drift_time") and any(v > 0 for v in vals):
+            if any(b.get("log") for b in sel) and any(v > 0 for v in vals):
                 ax.set_yscale("log")
             ax.set_title(f"{knob} at success {fmt(sel[0]['target'])}", fontsize=8)
         save(fig, "breakpoints.png", "break points")

@@ -5,9 +5,9 @@ Read top to bottom: :func:`build_scorecard` runs each scenario of
 :data:`cml_edge.scenarios.SCENARIOS` on each device of the report (the systems of
 :func:`cml_edge.backends.report_systems`, the earlier crossbar presets under their new
 names among them) through :func:`cml_edge.scenarios.run_scenario` (the sweep engine: a
-local pool, one worker per core), then each break point of :data:`BREAKPOINTS`
-(:func:`cml_edge.scenarios.breakpoint.find_breakpoint`), and returns the three lists the
-report keeps under stable keys:
+local pool, one worker per core), then each break point the devices declare for the
+report (:func:`reference_breakpoints`; :func:`cml_edge.scenarios.breakpoint.find_breakpoint`),
+and returns the three lists the report keeps under stable keys:
 
 - ``scorecard``: one row per device x scenario x part (a scenario's evaluation
   condition, e.g. retention's ``1y``): ``device``, ``scenario``, ``part``,
@@ -16,7 +16,8 @@ report keeps under stable keys:
   mean), ``seeds``, with the seed spreads beside them;
 - ``breakpoints``: ``device``, ``knob``, ``scenario``, ``value`` (None when the knob's
   range does not bracket the target: ``note`` then says why, with both ends' success),
-  ``target``, ``seeds``, and every evaluation the bisection took;
+  ``target``, ``seeds``, ``log`` (the knob is swept on a log scale, and drawn on one),
+  and every evaluation the bisection took;
 - ``recovery``: one row per device x K (walks of in-situ relearning after a year of
   drift): ``device``, ``walks``, ``success_rate``, ``pulses``, ``energy_uJ`` (seed means
   of what the relearning cost), with ``writes`` and ``decision_agreement``.
@@ -31,10 +32,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from cml_edge.backends import report_systems
+from cml_edge.backends import backend_spec, report_breakpoints, report_systems
 from cml_edge.errors import InputError
 from cml_edge.scenarios import SCENARIOS, run_scenario
-from cml_edge.scenarios.breakpoint import find_breakpoint
+from cml_edge.scenarios.breakpoint import find_breakpoint, get_knob
 
 
 @dataclass(frozen=True)
@@ -50,18 +51,19 @@ class Breakpoint:
     value_range: tuple[float, float] | None = None
 
 
-CROSSBAR_KNOBS = ("read_noise", "prog_noise", "levels", "drift_time", "stuck", "adc_bits")
-BREAKPOINTS: tuple[Breakpoint, ...] = (
-    *[Breakpoint(f"crossbar-{p}", "crossbar", {"preset": p}, knob)
-      for p in ("pcm", "reram") for knob in CROSSBAR_KNOBS],
-    *[Breakpoint("crossbar-ideal", "crossbar", {"preset": "ideal"}, knob)
-      for knob in ("read_noise", "levels", "stuck", "adc_bits")],
-    Breakpoint("fixed", "fixed", {}, "bits"),
-    Breakpoint("loihi2", "loihi2", {}, "bits", value_range=(1, 8)),
-)
-"""The report's break points, all on the paper scenario at target 0.95: the six crossbar
-knobs on the calibrated pcm and reram presets, the four that apply to the ideal crossbar,
-the mantissa bits of the fixed-point array (int8's other settings) and Loihi 2's weight bits."""
+def reference_breakpoints() -> tuple[Breakpoint, ...]:
+    """The report's break points, all on the paper scenario at target 0.95, each over its
+    knob's default range, as the devices declare them
+    (:attr:`cml_edge.backends.device.Report.breakpoints`, in the order of
+    :func:`cml_edge.backends.report_breakpoints`); InputError for a knob the device does
+    not have."""
+    out = []
+    for label, backend, options, knob in report_breakpoints():
+        get_knob(knob, backend_spec(backend).device.name)
+        out.append(Breakpoint(label, backend, options, knob))
+    return tuple(out)
+
+
 TARGET = 0.95
 
 
@@ -75,7 +77,7 @@ class ScorecardPlan:
     breakpoint_seeds: int
     devices: list[tuple[str, str, dict[str, Any]]] = field(default_factory=report_systems)
     scenarios: tuple[str, ...] = tuple(SCENARIOS)
-    breakpoints: tuple[Breakpoint, ...] = BREAKPOINTS
+    breakpoints: tuple[Breakpoint, ...] = field(default_factory=reference_breakpoints)
     workers: int | None = None
 
     @classmethod
@@ -122,9 +124,11 @@ def recovery_rows(device: str, result: dict[str, Any]) -> list[dict[str, Any]]:
 
 def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan) -> dict[str, Any]:
     """One break point, or the reason there is none (the range does not bracket)."""
+    knob = get_knob(bp.knob, backend_spec(bp.backend).device.name)
     row: dict[str, Any] = {"device": bp.device, "backend": bp.backend, "options": bp.options,
                            "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
-                           "seeds": plan.breakpoint_seeds, "budget": plan.budget}
+                           "seeds": plan.breakpoint_seeds, "budget": plan.budget,
+                           "log": knob.log}
     try:
         res = find_breakpoint(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
                               plan.breakpoint_seeds, bp.value_range, plan.budget,

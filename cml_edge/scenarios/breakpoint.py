@@ -1,11 +1,14 @@
 """Break points: the knob value at which a scenario's success crosses a target.
 
-A **knob** (:data:`KNOBS`) is one device setting (a config field, or the time the arrays
-sit idle before planning), with a default range and a direction: the ``good`` end, where
-a device is closer to ideal. Its range is laid on a fixed grid of :data:`GRID_POINTS`
-values (evenly spaced, on a log scale for times, the distinct integers of such a grid for
-integer fields), ordered from the good end to the bad end, so a break point is always
-one of the grid's values and a rerun takes the same evaluations.
+A **knob** (:class:`cml_edge.backends.device.Knob`) is one device setting, with a default
+range and a direction: the ``good`` end, where a device is closer to ideal. A device
+declares its own in its folder (a config field, or a compound such as the crossbar's
+``stuck``); the generic ones (:data:`GENERIC_KNOBS`: the time the arrays sit idle before
+planning) apply to every device; :func:`knobs_of` reads both from the registry. A knob's
+range is laid on a fixed grid of :data:`GRID_POINTS` values (evenly spaced, on a log
+scale for times and levels, the distinct integers of such a grid for integer fields),
+ordered from the good end to the bad end, so a break point is always one of the grid's
+values and a rerun takes the same evaluations.
 
 :func:`find_breakpoint` runs the scenario (:func:`cml_edge.scenarios.runner.run_scenario`,
 every evaluation on the same seeds) at both ends. The range brackets the target when
@@ -24,13 +27,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cml_edge.backends import backend_spec
+from cml_edge.backends import DEVICES, Knob, backend_spec
 from cml_edge.errors import InputError
 from cml_edge.scenarios.registry import get
 from cml_edge.scenarios.runner import run_scenario
@@ -42,81 +44,54 @@ MIN_SEEDS = 2
 IDLE = "idle_s"
 """The pseudo-field of the drift-time knob: seconds idle before planning."""
 
-
-@dataclass(frozen=True)
-class Knob:
-    """A device setting swept for a break point."""
-
-    name: str
-    fields: dict[str, str]
-    """Device name -> the config field the knob sets (``idle_s``: the idle time, on any
-    device: key ``*``)."""
-    lo: float
-    hi: float
-    good: str
-    """``low`` or ``high``: the end where the device is closer to ideal."""
-    integer: bool = False
-    log: bool = False
-    doc: str = ""
-
-    def field(self, device: str) -> str:
-        name = self.fields.get(device, self.fields.get("*"))
-        if name is None:
-            raise InputError(f"knob {self.name!r} does not apply to the {device} device; its "
-                             f"knobs: {', '.join(knobs_of(device))}")
-        return name
-
-    def grid(self, lo: float, hi: float) -> list[float]:
-        """The grid on [lo, hi], from the good end to the bad end (module docstring)."""
-        values = (np.geomspace(lo, hi, GRID_POINTS) if self.log
-                  else np.linspace(lo, hi, GRID_POINTS))
-        if self.integer:
-            values = np.unique(np.round(values).astype(int))
-        out = [int(v) if self.integer else float(v) for v in values]
-        return out if self.good == "low" else out[::-1]
-
-
-KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("read_noise", {"crossbar": "read_noise"}, 0.0, 0.5, "low",
-         doc="crossbar read_noise: conductance fluctuation per read, std relative to the "
-             "conductance range"),
-    Knob("prog_noise", {"crossbar": "prog_noise"}, 0.0, 20.0, "low",
-         doc="crossbar prog_noise: scale of the programming-noise model (aihwkit "
-             "prog_noise_scale)"),
-    Knob("levels", {"crossbar": "levels"}, 2, 1001, "high", integer=True, log=True,
-         doc="crossbar conductance levels per device"),
-    Knob("bits", {"fixed": "bits", "loihi2": "num_weight_bits"}, 2, 16, "high",
-         integer=True, doc="fixed: weight mantissa bits (2..16); loihi2: num_weight_bits "
-                           "(give --range within 1..8)"),
-    Knob("drift_time", {"*": IDLE}, 1.0, 3.15576e9, "low", log=True,
+GENERIC_KNOBS: dict[str, Knob] = {k.name: k for k in (
+    Knob("drift_time", IDLE, 1.0, 3.15576e9, "low", log=True,
          doc="seconds idle between the end of training and planning (100 years at the "
              "bad end); drifts only a device that drifts"),
-    Knob("stuck", {"crossbar": "stuck"}, 0.0, 0.5, "low",
-         doc="crossbar fraction of stuck devices, half at g_min (stuck_low) and half at "
-             "g_max (stuck_high)"),
-    Knob("adc_bits", {"crossbar": "adc_bits"}, 2, 14, "high", integer=True,
-         doc="crossbar ADC bits on the outputs"),
 )}
+"""The knobs of every device (a device's own are declared in its folder,
+:attr:`cml_edge.backends.device.DeviceSpec.knobs`)."""
 
 
-def knobs_of(device: str) -> list[str]:
-    return [k.name for k in KNOBS.values() if device in k.fields or "*" in k.fields]
+def knobs_of(device: str) -> dict[str, Knob]:
+    """The knobs of ``device`` (a registered device's name): its own, then the generic
+    ones it does not declare itself."""
+    own = {k.name: k for k in DEVICES[device].knobs}
+    return {**own, **{name: k for name, k in GENERIC_KNOBS.items() if name not in own}}
 
 
-def get_knob(name: str) -> Knob:
-    if name not in KNOBS:
-        raise InputError(f"unknown knob {name!r}; allowed: {', '.join(KNOBS)}")
-    return KNOBS[name]
+def knob_names() -> list[str]:
+    """Every knob name of the registered devices and the generic ones."""
+    return list(dict.fromkeys([k.name for d in DEVICES.values() for k in d.knobs]
+                              + list(GENERIC_KNOBS)))
 
 
-def knob_setting(knob: Knob, device: str, value: float) -> tuple[dict[str, Any], float]:
-    """(device options, idle seconds) that set ``knob`` to ``value`` on ``device``."""
-    field = knob.field(device)
-    if field == IDLE:
+def get_knob(name: str, device: str) -> Knob:
+    """The knob ``name`` of ``device``; InputError naming the knobs there are."""
+    knobs = knobs_of(device)
+    if name in knobs:
+        return knobs[name]
+    if name not in knob_names():
+        raise InputError(f"unknown knob {name!r}; allowed: {', '.join(knob_names())}")
+    raise InputError(f"knob {name!r} does not apply to the {device} device; its knobs: "
+                     f"{', '.join(knobs)}")
+
+
+def knob_grid(knob: Knob, lo: float, hi: float) -> list[float]:
+    """The grid of ``knob`` on [lo, hi], from the good end to the bad end (module
+    docstring)."""
+    values = np.geomspace(lo, hi, GRID_POINTS) if knob.log else np.linspace(lo, hi, GRID_POINTS)
+    if knob.integer:
+        values = np.unique(np.round(values).astype(int))
+    out = [int(v) if knob.integer else float(v) for v in values]
+    return out if knob.good == "low" else out[::-1]
+
+
+def knob_setting(knob: Knob, value: float) -> tuple[dict[str, Any], float]:
+    """(device options, idle seconds) that set ``knob`` to ``value``."""
+    if knob.field == IDLE:
         return {}, float(value)
-    if field == "stuck":
-        return {"stuck_low": value / 2, "stuck_high": value / 2}, 0.0
-    return {field: value}, 0.0
+    return knob.setting(value), 0.0
 
 
 def scenario_success(result: dict[str, Any], part: str | None = None) -> float:
@@ -175,10 +150,10 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     each evaluation's sweep under ``out/KNOB=VALUE`` (resumable)."""
     get(scenario)
     spec = backend_spec(backend)
-    device = spec.device.name if spec.device is not None else backend
-    k = get_knob(knob)
-    if spec.device is not None and k.field(device) in spec.device.fixes(backend):
-        raise InputError(f"--backend {backend} fixes {k.field(device)}, the field of knob "
+    device = spec.device.name
+    k = get_knob(knob, device)
+    if any(name in spec.device.fixes(backend) for name in k.fields):
+        raise InputError(f"--backend {backend} fixes {k.field}, the field of knob "
                          f"{knob!r}; use --backend {device}")
     if isinstance(seeds, bool) or int(seeds) != seeds or seeds < MIN_SEEDS:
         raise InputError(f"a break point needs at least {MIN_SEEDS} seeds (got {seeds!r})")
@@ -190,13 +165,13 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     if k.log and lo <= 0:
         raise InputError(f"knob {knob!r} is swept on a log scale: its range must be > 0 "
                          f"(got {lo!r})")
-    grid = k.grid(lo, hi)
+    grid = knob_grid(k, lo, hi)
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
     evaluations: list[dict[str, Any]] = []
 
     def passes(value: float) -> bool:
-        setting, idle = knob_setting(k, device, value)
+        setting, idle = knob_setting(k, value)
         res = run_scenario(scenario, backend, {**(options or {}), **setting}, seeds, budget,
                            Path(out) / f"{knob}={value}" if out is not None else None,
                            workers, scheduler, idle_s=idle)
@@ -214,7 +189,7 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
                          f"{scenario} ({ends}; the good end, {k.good}, must reach the target "
                          f"and the other end fall below it)") from None
     return {"scenario": scenario, "backend": backend, "backend_options": dict(options or {}),
-            "knob": knob, "field": k.field(device), "good": k.good, "target": target,
+            "knob": knob, "field": k.field, "good": k.good, "target": target,
             "value": grid[i], "bracket": [grid[i], grid[j]], "range": [lo, hi],
             "grid": grid, "seeds": int(seeds), "seed_list": list(range(int(seeds))),
             "budget": budget, "part": part, "evaluations": evaluations,

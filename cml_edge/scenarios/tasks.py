@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CML, CMLConfig
-from cml_edge.costs.ledger import TECHNOLOGIES, energy_pj, technology
+from cml_edge.costs.ledger import cost_model, energy_pj, technology
 from cml_edge.experiments.common import _eval_setting
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import Evaluation, Training, train_seed
@@ -45,15 +45,15 @@ WRITE_COUNTERS = ("devices_written", "cells_changed")
 
 def relearn_cost(cml: CML, before: dict[str, int], after: dict[str, int]) -> dict[str, Any]:
     """What the arrays did between two counter readings: the difference, the write pulses
-    (the analog cost model's pulse counters), the cells written and the energy (uJ;
+    (the pulse counters of the device's cost model), the cells written and the energy (uJ;
     None where the technology is not costed)."""
     diff = {k: after[k] - before.get(k, 0) for k in after}
-    tech = technology(cml)
-    pulses = sum(diff.get(k, 0) for k in TECHNOLOGIES["analog"].pulse_counters)
+    model = cost_model(cml)
+    pulses = sum(diff.get(k, 0) for k in model.pulse_counters)
     writes = next((diff[k] for k in WRITE_COUNTERS if k in diff), 0)
-    pj, _ = energy_pj(tech, diff)
+    pj, _ = energy_pj(model, diff)
     return {"counters": diff, "pulses": int(pulses), "writes": int(writes),
-            "energy_uJ": None if pj is None else pj * 1e-6, "technology": tech}
+            "energy_uJ": None if pj is None else pj * 1e-6, "technology": model.name}
 
 
 def _trial_record(ev: Evaluation, res: Any) -> dict[str, Any]:

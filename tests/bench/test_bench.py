@@ -7,7 +7,7 @@ import pytest
 from cml_edge.bench.timing import (
     LEARNERS,
     SCORERS,
-    expand_presets,
+    bench_names,
     label,
     parse_name,
     ratios,
@@ -90,10 +90,13 @@ def test_names_with_presets():
     for bad in ("crossbar:nope", "int8:pcm", "nope"):
         with pytest.raises(InputError):
             parse_name(bad)
-    names = expand_presets(["float", "crossbar", "crossbar:pcm"])
+    names = bench_names(["float", "crossbar", "crossbar:pcm"], presets=True)
     assert names[0] == "float" and names[-1] == "crossbar:pcm"
     assert {"crossbar:ideal", "crossbar:pcm", "crossbar:reram", "crossbar:pcm-symmetric",
             "crossbar:reram-symmetric"} <= set(names[1:-1])
+    assert bench_names(["float", "crossbar", "int8"]) == ["float", "crossbar", "int8"]
+    with pytest.raises(InputError, match="unknown preset 'pcm' for 'int8'"):
+        bench_names(["int8:pcm"])
 
 
 def test_settings_change_the_named_backends_only_when_valid():

@@ -39,9 +39,69 @@ def test_steps_to_converge_uses_the_dqn_criterion():
 
 
 def test_energy_is_counted_with_sources_and_never_guessed():
-    e, sources = ledger.energy_pj("fp32", {"macs": 10, "bytes_read": 8})
+    fp32, fp64 = (ledger.cost_model(CML.create(backend=b)) for b in ("float32", "float"))
+    e, sources = ledger.energy_pj(fp32, {"macs": 10, "bytes_read": 8})
     assert e == pytest.approx(10 * 4.6 + 8 * 1.25) and all("Horowitz" in s for s in sources)
-    assert ledger.energy_pj("fp64", {"macs": 10}) == (None, [])
+    assert (fp32.name, fp64.name) == ("fp32", "fp64")
+    assert ledger.energy_pj(fp64, {"macs": 10}) == (None, [])
+    analog = ledger.cost_model(CML.create(backend="crossbar"))
+    e, sources = ledger.energy_pj(analog, {"analog_macs": 10, "device_pulses": 3,
+                                           "refresh_pulses": 1, "macs": 99})
+    assert e == 10 * 0.205 + 4 * 64.0 and len(sources) == 2
+
+
+# the reference report's plan as it was written out by hand before the devices declared it
+# (label, backend, options) of the systems; (figure, label, backend, options) of the sweeps;
+# (label, backend, options, knob, range, fields, good, integer, log) of the break points
+CROSSBAR_PRESETS = ("ideal", "pcm", "reram", "pcm-symmetric", "reram-symmetric")
+HAND_SYSTEMS = [("float64", "float", {}), ("float32", "float32", {}), ("int16", "int16", {}),
+                ("int8", "int8", {}),
+                *[(f"crossbar-{p}", "crossbar", {"preset": p}) for p in CROSSBAR_PRESETS],
+                ("loihi2", "loihi2", {})]
+HAND_SWEEPS = [
+    *[("bits", f"{b} bits {r}", "fixed", {"bits": b, "rounding": r})
+      for r in ("stochastic", "nearest") for b in (16, 8, 6, 4)],
+    *[("levels", f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n})
+      for n in (4, 16, 64, 256)],
+    *[("read noise", f"pcm read_noise {x:g}", "crossbar", {"preset": "pcm", "read_noise": x})
+      for x in (0.05, 0.2, 0.5, 1.0)],
+]
+HAND_KNOBS = {  # knob: (range, fields, good, integer, log)
+    "read_noise": ((0.0, 0.5), ("read_noise",), "low", False, False),
+    "prog_noise": ((0.0, 20.0), ("prog_noise",), "low", False, False),
+    "levels": ((2, 1001), ("levels",), "high", True, True),
+    "drift_time": ((1.0, 3.15576e9), ("idle_s",), "low", False, True),
+    "stuck": ((0.0, 0.5), ("stuck_low", "stuck_high"), "low", False, False),
+    "adc_bits": ((2, 14), ("adc_bits",), "high", True, False),
+}
+CROSSBAR_KNOBS = ("read_noise", "prog_noise", "levels", "drift_time", "stuck", "adc_bits")
+HAND_BREAKPOINTS = [
+    *[(f"crossbar-{p}", "crossbar", {"preset": p}, knob, *HAND_KNOBS[knob])
+      for p in ("pcm", "reram") for knob in CROSSBAR_KNOBS],
+    *[("crossbar-ideal", "crossbar", {"preset": "ideal"}, knob, *HAND_KNOBS[knob])
+      for knob in ("read_noise", "levels", "stuck", "adc_bits")],
+    ("fixed", "fixed", {}, "bits", (2, 16), ("bits",), "high", True, False),
+    ("loihi2", "loihi2", {}, "bits", (1, 8), ("num_weight_bits",), "high", True, False),
+]
+
+
+def test_the_reference_plan_is_what_the_devices_declare():
+    """The same systems, sweeps and break points (each knob's range, fields, direction and
+    grid) as the hand-kept lists, in the same order and with the same types (an int range
+    stays int in the JSON)."""
+    from cml_edge.backends import backend_spec, report_sweeps, report_systems
+    from cml_edge.scenarios.breakpoint import get_knob
+
+    plan = ScorecardPlan.of(quick=False)
+    assert repr(report_systems()) == repr(plan.devices) == repr(HAND_SYSTEMS)
+    assert repr(report_sweeps()) == repr(HAND_SWEEPS)
+    derived = []
+    for b in plan.breakpoints:
+        k = get_knob(b.knob, backend_spec(b.backend).device.name)
+        assert b.scenario == "paper" and b.value_range is None
+        derived.append((b.device, b.backend, b.options, b.knob, (k.lo, k.hi), k.fields,
+                        k.good, k.integer, k.log))
+    assert repr(derived) == repr(HAND_BREAKPOINTS)
 
 
 # the scorecard's machinery on a smoke-test budget (its numbers mean nothing of a device)
@@ -154,3 +214,28 @@ def test_breakpoint_row_bracketed():
     assert row["value"] in [e["value"] for e in row["evaluations"]]
     ok = {e["value"]: e["success_rate"] >= row["target"] for e in row["evaluations"]}
     assert ok[row["bracket"][0]] and not ok[row["bracket"][1]]
+
+
+def test_the_devices_cost_models_price_the_reference_report_to_the_last_bit():
+    """The energy and counted FLOPs of every CML system of the committed reference report,
+    recomputed from its counters with each device's declared cost model."""
+    from pathlib import Path
+
+    from cml_edge.backends import backend_spec
+    from cml_edge.report.build import counted_flops
+
+    path = Path(__file__).parents[2] / "hw_reports" / "reference" / "report.json"
+    systems = [s for s in json.loads(path.read_text())["systems"] if s["kind"] == "cml"]
+    assert len(systems) == 10
+    for s in systems:
+        device = backend_spec(s["backend"]).device
+        model = device.cost_model(device.make_config(
+            **{**device.backend_options(s["backend"]), **s["options"]}))
+        train, sources = ledger.energy_pj(model, s["train_counters"])
+        plan, _ = ledger.energy_pj(model, s["plan_counters"])
+        assert (None if train is None else train / 1e6) == s["energy_per_run_uj"], s["label"]
+        assert (None if plan is None else plan / s["plan_steps"] / 1e3) == \
+            s["energy_per_action_nj"], s["label"]
+        assert sources == s["energy_sources"], s["label"]
+        assert counted_flops(ledger.counted_macs(model, s["plan_counters"]),
+                             s["plan_steps"]) == s["inference_flops_counted"], s["label"]

@@ -9,10 +9,13 @@ from cml_edge.errors import InputError
 from cml_edge.scenarios import SCENARIOS, run_scenario
 from cml_edge.scenarios.breakpoint import (
     GRID_POINTS,
-    KNOBS,
     NotBracketedError,
     bisect,
     find_breakpoint,
+    get_knob,
+    knob_grid,
+    knob_setting,
+    knobs_of,
 )
 from cml_edge.scenarios.registry import AGES, RECOVERY_WALKS
 
@@ -134,10 +137,30 @@ def test_bisection_on_a_monotone_function():
 
 
 def test_knob_grids_run_from_the_good_end():
-    assert KNOBS["read_noise"].grid(0, 0.5)[0] == 0
-    levels = KNOBS["levels"].grid(2, 1001)
+    assert knob_grid(get_knob("read_noise", "crossbar"), 0, 0.5)[0] == 0
+    levels = knob_grid(get_knob("levels", "crossbar"), 2, 1001)
     assert levels[0] == 1001 and levels[-1] == 2 and len(set(levels)) == len(levels)
-    assert KNOBS["drift_time"].grid(1, 1e9)[-1] == pytest.approx(1e9)
+    assert knob_grid(get_knob("drift_time", "float"), 1, 1e9)[-1] == pytest.approx(1e9)
+
+
+def test_knobs_are_read_from_the_devices_and_set_their_fields():
+    """Each device's own knobs (declared in its folder), then the generic idle time."""
+    assert list(knobs_of("crossbar")) == ["read_noise", "prog_noise", "levels", "stuck",
+                                          "adc_bits", "drift_time"]
+    assert list(knobs_of("float")) == ["drift_time"]
+    fixed, loihi2 = get_knob("bits", "fixed"), get_knob("bits", "loihi2")
+    assert (fixed.field, fixed.lo, fixed.hi) == ("bits", 2, 16)
+    assert (loihi2.field, loihi2.lo, loihi2.hi) == ("num_weight_bits", 1, 8)
+    assert knob_setting(get_knob("stuck", "crossbar"), 0.5) == (
+        {"stuck_low": 0.25, "stuck_high": 0.25}, 0.0)
+    assert knob_setting(loihi2, 6) == ({"num_weight_bits": 6}, 0.0)
+    assert knob_setting(get_knob("drift_time", "crossbar"), 60) == ({}, 60.0)
+    with pytest.raises(InputError,
+                       match="unknown knob 'nope'; allowed: bits, read_noise, .*drift_time"):
+        get_knob("nope", "crossbar")
+    with pytest.raises(InputError, match="knob 'levels' does not apply to the fixed device; "
+                                         "its knobs: bits, drift_time"):
+        get_knob("levels", "fixed")
 
 
 def test_a_real_break_point_and_a_range_that_does_not_bracket():
@@ -153,13 +176,3 @@ def test_a_real_break_point_and_a_range_that_does_not_bracket():
     with pytest.raises(InputError, match="at least 2 seeds"):
         find_breakpoint("paper", "crossbar", "read_noise", **{**kw, "seeds": 1})
 
-
-def test_the_default_ranges_are_valid_settings():
-    from cml_edge.core.cml import CML
-
-    for knob in KNOBS.values():
-        for device, field in knob.fields.items():
-            if device in ("*", "loihi2") or field == "stuck":  # loihi2: --range within 1..8
-                continue
-            for value in (knob.lo, knob.hi):
-                CML.create(backend=device, **{field: int(value) if knob.integer else value})

@@ -27,7 +27,6 @@ from cml_edge.backends.crossbar import kernels as kern
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
     NEW_FIELDS,
-    PRESETS,
     CrossbarParams,
     DeviceConfig,
     crossbar_params,
@@ -332,5 +331,4 @@ def legacy_params(record: Any, alpha: float, elapsed: float) -> np.ndarray:
     return np.array([float(values[name]) for name in LEGACY_PARAMS])
 
 
-# PRESETS is re-exported: cml_edge.experiments.backends looks for it beside the array class
-__all__ = ["LEGACY_PARAMS", "PRESETS", "CrossbarArray", "CrossbarState", "legacy_params"]
+__all__ = ["LEGACY_PARAMS", "CrossbarArray", "CrossbarState", "legacy_params"]

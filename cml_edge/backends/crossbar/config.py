@@ -75,6 +75,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from cml_edge.backends.device import CostModel, Knob
 from cml_edge.backends.fields import (
     check_types,
     field_names,
@@ -82,7 +83,6 @@ from cml_edge.backends.fields import (
     option,
     resolve,
 )
-from cml_edge.backends.fields import parse_setting as _parse_setting
 from cml_edge.backends.params import build_record, kernel_record
 from cml_edge.errors import InputError
 
@@ -499,6 +499,28 @@ def make_config(preset: str = DEFAULT_PRESET, **overrides: Any) -> DeviceConfig:
     return resolve(DeviceConfig, PRESETS, {**overrides, "preset": preset}, "crossbar")
 
 
-def parse_setting(text: str) -> tuple[str, Any]:
-    """``field=value`` from ``--set``: the field name and the value in the field's type."""
-    return _parse_setting(DeviceConfig, text, "crossbar")
+KNOBS = (
+    Knob("read_noise", "read_noise", 0.0, 0.5, "low",
+         doc="crossbar read_noise: conductance fluctuation per read, std relative to the "
+             "conductance range"),
+    Knob("prog_noise", "prog_noise", 0.0, 20.0, "low",
+         doc="crossbar prog_noise: scale of the programming-noise model (aihwkit "
+             "prog_noise_scale)"),
+    Knob("levels", "levels", 2, 1001, "high", integer=True, log=True,
+         doc="crossbar conductance levels per device"),
+    Knob("stuck", "stuck", 0.0, 0.5, "low", parts=("stuck_low", "stuck_high"),
+         doc="crossbar fraction of stuck devices, half at g_min (stuck_low) and half at "
+             "g_max (stuck_high)"),
+    Knob("adc_bits", "adc_bits", 2, 14, "high", integer=True,
+         doc="crossbar ADC bits on the outputs"),
+)
+"""What a break point can sweep on the crossbar (``cml-edge scenario breakpoint --knob``;
+the idle ``drift_time`` applies to every device)."""
+
+ANALOG = CostModel("analog", "analog_mac", ("analog_macs",), pulse="write_pulse",
+                   pulse_counters=("device_pulses", "refresh_pulses"))
+"""The crossbar's cost model (cml_edge.costs.ledger.COSTS): analog MACs, whose figure
+includes the DAC and ADC conversions (the MACs of drift compensation's calibration reads
+and of bound management's re-reads are counted in ``analog_macs``), and one write pulse
+per device pulse (the RESET and SET pulses of pair refreshes are ``refresh_pulses``); no
+SRAM traffic."""

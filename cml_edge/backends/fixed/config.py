@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from cml_edge.backends.device import CostModel, Knob
 from cml_edge.backends.fields import option, resolve
 from cml_edge.backends.fixed.kernels import NEURON_BITS
 from cml_edge.backends.params import build_record, kernel_record
@@ -133,6 +134,28 @@ def make_config(**options: Any) -> FixedConfig:
     return resolve(FixedConfig, PRESETS, options, "fixed")
 
 
+KNOBS = (
+    Knob("bits", "bits", 2, 16, "high", integer=True,
+         doc="fixed: weight mantissa bits (2..16)"),
+)
+"""What a break point can sweep on the fixed-point device (``cml-edge scenario
+breakpoint --knob``)."""
+
+
+# the cost model (cml_edge.costs.ledger.COSTS) -------------------------------------------
+_COUNTERS = dict(mac_counters=("macs", "update_macs"), byte="sram_byte",
+                 byte_counters=("bytes_read", "bytes_written"))
+INT8 = CostModel("int8", "int8_mac", **_COUNTERS)
+"""Up to 8-bit weights: the int8 MAC, for every read and update MAC, and the SRAM byte."""
+INT16 = CostModel("int16", "int32_mac", **_COUNTERS)
+"""9..16-bit weights: the int32 MAC, an upper bound, and the SRAM byte."""
+
+
+def cost_model(config: FixedConfig) -> CostModel:
+    """The cost model of an array of ``config``: by its weight width."""
+    return INT8 if config.bits <= 8 else INT16
+
+
 # the kernels' parameter record ---------------------------------------------------------
 FixedParams = kernel_record(FixedConfig, "FixedParams", __name__, derived={
     "exp": int,  # the matrix's exponent: W = mantissa x 2^exp
@@ -174,4 +197,5 @@ def _mac_plan(n: int, qmax_w: int, qmax_a: int, mac_bits: int) -> tuple[int, int
     return check, shift
 
 
-__all__ = ["PRESETS", "FixedConfig", "FixedParams", "fixed_params", "make_config"]
+__all__ = ["INT8", "INT16", "KNOBS", "PRESETS", "FixedConfig", "FixedParams", "cost_model",
+           "fixed_params", "make_config"]

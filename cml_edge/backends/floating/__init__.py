@@ -1,10 +1,10 @@
 """The float reference device: weights and arithmetic in float64 (``float``) or float32."""
 
-from cml_edge.backends.device import Backend, DeviceSpec
+from cml_edge.backends.device import Backend, DeviceSpec, Report
 from cml_edge.backends.dispatch import Kernels
 from cml_edge.backends.floating import kernels
 from cml_edge.backends.floating.array import FloatArray, FloatState
-from cml_edge.backends.floating.config import PRESETS, FloatConfig
+from cml_edge.backends.floating.config import PRESETS, FloatConfig, cost_model
 
 DEVICE = DeviceSpec(
     array_class=FloatArray,
@@ -14,8 +14,8 @@ DEVICE = DeviceSpec(
     backends={"float": Backend("float64 reference", preset="float"),
               "float32": Backend("float32 weights and arithmetic", preset="float32")},
     presets=PRESETS,
-    technology=lambda config: {"float64": "fp64", "float32": "fp32"}[config.dtype],
-    report=(("float64", "float", {}), ("float32", "float32", {})),
+    cost=cost_model,
+    report=Report(systems=(("float64", "float", {}), "float32")),
 )
 
 __all__ = ["DEVICE", "FloatArray", "FloatConfig", "FloatState"]

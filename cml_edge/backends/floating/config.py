@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from cml_edge.backends.device import CostModel
 from cml_edge.backends.fields import option, resolve
 from cml_edge.errors import InputError
 
@@ -36,3 +37,15 @@ PRESETS: dict[str, dict[str, Any]] = {
 def make_config(**options: Any) -> FloatConfig:
     """The config of ``options`` (``dtype``, or a ``preset`` name)."""
     return resolve(FloatConfig, PRESETS, options, "float")
+
+
+# the cost model (cml_edge.costs.ledger.COSTS) -------------------------------------------
+FP64 = CostModel("fp64", mac_counters=("macs",))
+"""No sourced float64 figure: not costed (its MACs still count a planning step's FLOPs)."""
+FP32 = CostModel("fp32", "fp32_mac", ("macs",), "sram_byte", ("bytes_read", "bytes_written"))
+"""The fp32 MAC and the SRAM byte, for every MAC and every byte moved."""
+
+
+def cost_model(config: FloatConfig) -> CostModel:
+    """The cost model of an array of ``config``: by its dtype."""
+    return FP32 if config.dtype == "float32" else FP64

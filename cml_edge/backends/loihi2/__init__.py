@@ -1,10 +1,10 @@
 """The ``loihi2`` device: Loihi 2 as Intel's Lava models it bit for bit, and export to Lava."""
 
-from cml_edge.backends.device import Backend, DeviceSpec
+from cml_edge.backends.device import Backend, DeviceSpec, Report
 from cml_edge.backends.dispatch import Kernels
 from cml_edge.backends.loihi2 import kernels
 from cml_edge.backends.loihi2.array import Loihi2Array, Loihi2State
-from cml_edge.backends.loihi2.config import PRESETS, Loihi2Config
+from cml_edge.backends.loihi2.config import COST, KNOBS, PRESETS, Loihi2Config
 
 DEVICE = DeviceSpec(
     array_class=Loihi2Array,
@@ -14,8 +14,9 @@ DEVICE = DeviceSpec(
     backends={"loihi2": Backend("Loihi 2 as Lava's bit-accurate models: 8-bit weights, "
                                 "graded spikes, 24-bit neurons, the learning engine")},
     presets=PRESETS,
-    technology="loihi2",
-    report=(("loihi2", "loihi2", {}),),
+    knobs=KNOBS,
+    cost=COST,
+    report=Report(systems=("loihi2",), breakpoints=(("loihi2", ("bits",)),)),
 )
 
 __all__ = ["DEVICE", "Loihi2Array", "Loihi2Config", "Loihi2State"]

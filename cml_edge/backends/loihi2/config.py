@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from cml_edge.backends.device import CostModel, Knob
 from cml_edge.backends.fields import check_types, option, resolve
 from cml_edge.backends.loihi2.lava import SIGN_MODES, weight_limits
 from cml_edge.backends.params import build_record, kernel_record
@@ -148,6 +149,19 @@ def make_config(**options: Any) -> Loihi2Config:
     return resolve(Loihi2Config, PRESETS, options, "loihi2")
 
 
+KNOBS = (
+    Knob("bits", "num_weight_bits", 1, 8, "high", integer=True,
+         doc="loihi2: weight bits, num_weight_bits (1..8)"),
+)
+"""What a break point can sweep on Loihi 2 (``cml-edge scenario breakpoint --knob``)."""
+
+COST = CostModel("loihi2", "int8_mac", ("macs", "update_macs"), "sram_byte",
+                 ("bytes_read", "bytes_written"))
+"""Loihi 2's cost model (cml_edge.costs.ledger.COSTS): no per-operation energy of its
+synaptic ops and learning engine is public in this form; the int8 MAC (8-bit weights) and
+the SRAM byte are the closest sourced figures."""
+
+
 # the kernels' parameter record ---------------------------------------------------------
 Loihi2Params = kernel_record(Loihi2Config, "Loihi2Params", __name__, derived={
     "exp": int,  # weight_exp E: a read's sum is shifted by E, then by 6 into u
@@ -190,6 +204,6 @@ def check_scale(scale_exp: int, what: str) -> int:
     return scale_exp
 
 
-__all__ = ["DRAWS", "TERMS", "MAX_MESSAGE_BITS", "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP",
-           "PAYLOAD_SCALES", "PRESETS", "Loihi2Config", "Loihi2Params", "check_scale",
-           "loihi2_params", "make_config", "payload_l1_max"]
+__all__ = ["COST", "DRAWS", "KNOBS", "TERMS", "MAX_MESSAGE_BITS", "MAX_T_EPOCH",
+           "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP", "PAYLOAD_SCALES", "PRESETS", "Loihi2Config",
+           "Loihi2Params", "check_scale", "loihi2_params", "make_config", "payload_l1_max"]

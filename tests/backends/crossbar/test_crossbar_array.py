@@ -17,7 +17,8 @@ from hypothesis.extra.numpy import arrays
 from cml_edge.backends import array_from_state_dict, make_array
 from cml_edge.backends.crossbar.array import CrossbarArray
 from cml_edge.backends.crossbar.conductance import prog_sigma
-from cml_edge.backends.crossbar.config import PRESETS, make_config, parse_setting
+from cml_edge.backends.crossbar.config import PRESETS, DeviceConfig, make_config
+from cml_edge.backends.fields import parse_setting
 from cml_edge.cli import main
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.arena import GridArena
@@ -369,12 +370,15 @@ def test_bad_configuration_is_a_one_line_value_error(fields, match):
 
 
 def test_settings_parse_to_the_field_type():
-    assert parse_setting("levels=64") == ("levels", 64)
-    assert parse_setting("read_noise = 0.02") == ("read_noise", 0.02)
-    assert parse_setting("drift_compensation=on") == ("drift_compensation", True)
+    def parse(text):
+        return parse_setting(DeviceConfig, text, "crossbar")
+
+    assert parse("levels=64") == ("levels", 64)
+    assert parse("read_noise = 0.02") == ("read_noise", 0.02)
+    assert parse("drift_compensation=on") == ("drift_compensation", True)
     for bad in ("levels=x", "nofield=1", "read_noise"):
         with pytest.raises(ValueError):
-            parse_setting(bad)
+            parse(bad)
 
 
 @pytest.mark.parametrize("argv", [

@@ -21,7 +21,13 @@ from scipy.stats import norm
 from cml_edge.backends import array_from_state_dict, make_array
 from cml_edge.backends.crossbar.characterize import TIMES_S, characterize
 from cml_edge.backends.crossbar.conductance import prog_sigma
-from cml_edge.backends.crossbar.config import NEW_FIELDS, PRESETS, DeviceConfig, make_config
+from cml_edge.backends.crossbar.config import (
+    ANALOG,
+    NEW_FIELDS,
+    PRESETS,
+    DeviceConfig,
+    make_config,
+)
 from cml_edge.backends.crossbar.kernels import set_pulses
 from cml_edge.costs.ledger import energy_pj
 
@@ -345,7 +351,7 @@ def test_refresh_resets_a_saturated_pair_and_keeps_its_weight():
     quiet.state.Gm[:] = 8.0
     one_pulse(quiet)
     assert "refreshes" not in quiet.counters
-    assert energy_pj("analog", {"refresh_pulses": 10})[0] == pytest.approx(640.0)
+    assert energy_pj(ANALOG, {"refresh_pulses": 10})[0] == pytest.approx(640.0)
 
 
 # presets and saved states -----------------------------------------------------------------------

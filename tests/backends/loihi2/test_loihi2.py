@@ -500,7 +500,7 @@ def test_budget_and_parameter_bytes():
     assert [a.weight_bits() for a in cml.arrays] == [8, 8, 8]
     assert sum(a.parameter_bytes for a in cml.arrays) == 4608
     assert cml.W_q.accumulator_bits() == 16
-    energy, sources = ledger.energy_pj("loihi2", {"macs": 10, "update_macs": 0})
+    energy, sources = ledger.energy_pj(ledger.cost_model(cml), {"macs": 10, "update_macs": 0})
     assert energy == pytest.approx(2.3) and "int8" in sources[0]
 
 
