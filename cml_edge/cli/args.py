@@ -131,10 +131,13 @@ def _device_flags() -> dict[str, _Flag]:
     return table
 
 
-def add_backend(p: argparse.ArgumentParser) -> None:
-    """``--backend NAME``, each device's flags in a group of its own, and ``--set``."""
-    p.add_argument("--backend", default="float",
-                   help=f"synaptic array: {', '.join(sorted(BACKENDS))} (default float)")
+def add_backend(p: argparse.ArgumentParser, default: str = "float",
+                help: str | None = None) -> None:
+    """``--backend NAME`` (``default``; ``help`` replaces the list of names), each
+    device's flags in a group of its own, and ``--set``."""
+    p.add_argument("--backend", default=default,
+                   help=help or f"synaptic array: {', '.join(sorted(BACKENDS))} (default "
+                                f"{default})")
     groups: dict[str, argparse._ArgumentGroup] = {}
     for flag, entry in _device_flags().items():
         owner = next(iter(entry.targets))

@@ -35,12 +35,9 @@ def add_parsers(sub) -> None:
     dsub = p.add_subparsers(dest="device_command", required=True, parser_class=type(p))
     c = dsub.add_parser("characterize", help="programming, drift, read noise and pulse "
                         "response of a crossbar preset, measured on N devices per point")
-    add_backend(c)
-    c.set_defaults(backend="crossbar", show=show_characterize)
-    for action in c._actions:  # the shared --backend help names another default
-        if action.dest == "backend":
-            action.help = ("the device: crossbar, the one characterised (default); its "
-                           "preset by --preset (default pcm)")
+    add_backend(c, default="crossbar", help="the device: crossbar, the one characterised "
+                "(default); its preset by --preset (default pcm)")
+    c.set_defaults(show=show_characterize)
     c.add_argument("--devices", type=int_at_least(2, ">= 2 (devices per point)"), default=10_000,
                    help="devices per point (10,000)")
     c.add_argument("--seed", type=int_at_least(0, ">= 0"), default=0,
