@@ -8,7 +8,7 @@ registry: :data:`BACKENDS` (what ``--backend NAME`` selects), ``make_array``,
 ``array_from_state_dict``, the command-line options (:mod:`cml_edge.cli.args`), the
 budget's technology and the report's systems. What the devices share (the seam, the
 parameter record, config fields, fixed-point helpers) sits beside this file; how to add
-a device: README.md here.
+a device: docs/architecture.md.
 
 ``make_array(name, W, seed=..., index=...)`` programs a float matrix into the named
 backend.
