@@ -333,10 +333,15 @@ def _run(fig: Figure, rerun: bool, timeout: float | None) -> tuple[Any, float]:
     return data, time.perf_counter() - t0
 
 
+def _echo(line: str) -> None:
+    print(line, flush=True)
+
+
 def check(figures: list[Figure], rerun: bool = False, timeout: float | None = None,
-          echo=print) -> int:
+          echo=_echo) -> int:
     """Run and compare every figure; returns the number that failed (mismatch or error)."""
     cache: dict[str, tuple[Any, float] | Exception] = {}
+    first_run: dict[str, str] = {}
     counts = {"match": 0, "MISMATCH": 0, "error": 0, "skipped": 0, "timing": 0}
     for fig in figures:
         if fig.kind == "timing":
@@ -351,19 +356,24 @@ def check(figures: list[Figure], rerun: bool = False, timeout: float | None = No
                  f"not installed)")
             continue
         key = f"{fig.command} @ {fig.file}" if fig.file else fig.command
-        if key not in cache:
+        source = f"  @ {fig.file}" if fig.file and not rerun else ""
+        if key in cache:
+            source += f"  (same output as {first_run[key]})"
+        else:
+            first_run[key] = fig.where
             try:
                 cache[key] = _run(fig, rerun, timeout)
             except (RuntimeError, OSError, json.JSONDecodeError,
                     subprocess.TimeoutExpired) as exc:
                 cache[key] = exc
         got = cache[key]
-        source = f"  @ {fig.file}" if fig.file and not rerun else ""
         if isinstance(got, Exception):
             counts["error"] += 1
             echo(f"error     {'':>8}  {fig.where}  {fig.command}{source}\n    {got}")
             continue
         data, seconds = got
+        if first_run[key] != fig.where:
+            seconds = 0.0
         problems = compare(fig, data)
         status = "MISMATCH" if problems else "match"
         counts[status] += 1
