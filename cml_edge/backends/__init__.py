@@ -10,7 +10,7 @@ selects), ``make_array``, ``array_from_state_dict``, the command-line options
 (:func:`configurations`), the knobs of the break-point finder, the budget's cost models
 and the report's systems, sweeps and break points. :func:`check_device` holds a device
 to the contract. What the devices share (the seam, the parameter record, config fields,
-fixed-point helpers) sits beside this file; how to add a device: README.md here.
+fixed-point helpers) sits beside this file; how to add a device: docs/architecture.md.
 
 ``make_array(name, W, seed=..., index=...)`` programs a float matrix into the named
 backend.

@@ -26,7 +26,7 @@ backend's direct path / float64 direct, per training and per planning step (goal
 (random walks with the local rule, heading-aware CML, float64) and ``plan_actions_per_s``
 (driving to goals from the base), each timed after a compiling warm-up: 10 walks x 900
 actions and 100 goals on the kinematic simulator, 1 walk x 300 actions and 5 goals on
-MuJoCo, which is physics-bound (its figures are in the README).
+MuJoCo, which is physics-bound (its figures are in benchmarks/README.md).
 """
 
 from __future__ import annotations

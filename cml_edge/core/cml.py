@@ -14,7 +14,7 @@ Choices the paper leaves open, made here:
   evaluation arena simply gives |o| > 0.5. Why centred: the affordance
   sigmoid(W_k W_q o) has no bias term, so with o in [0, 1]^2 it cannot be near-uniform
   in the interior, and its distortion of u * g lengthens paths and loses goals (measured
-  in the README). Why scaled: Eq. 3's per-walk sum has gain lr * steps * E|o|^2,
+  in docs/choices.md). Why scaled: Eq. 3's per-walk sum has gain lr * steps * E|o|^2,
   0.15 here; raw metre coordinates (|o|^2 up to 1,682) would diverge.
 - Initialisation: W_q ~ N(0, 1/N_s), so |s| ~ |o| and Eq. 1's per-walk gain
   lr * steps * E|s|^2 stays ~0.15 (with W_q ~ N(0, 1) it is ~40 and W_k overshoots,
@@ -27,7 +27,7 @@ Choices the paper leaves open, made here:
   small against their read noise.
 - Utility: ``normalized`` (default) divides each u_a by the norm of W_v's column a,
   read once per planning batch, so the longer diagonal action vectors do not win
-  near the goal; ``raw`` is the paper's plain inner product. Measured in the README.
+  near the goal; ``raw`` is the paper's plain inner product. Measured in docs/choices.md.
 """
 
 from __future__ import annotations

@@ -64,7 +64,7 @@ def default_path(cml: CML | str, schedule: str = "walk",
       a device array emulates operation by operation.
     - Otherwise ``factored`` where it applies (:func:`factored_supported`: float64 arrays
       and the per-walk schedule; it agrees with ``direct`` to rounding and is much faster,
-      measured in the README), else ``direct``: ``cml-edge train``, ``evaluate``,
+      measured in benchmarks/README.md), else ``direct``: ``cml-edge train``, ``evaluate``,
       ``navigate``, the experiments, and the extra figures of ``cml-edge bench``.
 
     ``cml`` is a model, or a backend name (with ``backend_options``) whose model is made

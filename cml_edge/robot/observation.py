@@ -29,12 +29,12 @@ The goal (paper 2.1: o* is the goal's observation) has no heading. ``goal_headin
 - ``keep``: o* carries the robot's current heading, so the heading part of
   d = W_q (o* - o) is zero. A turning action's learned vector W_v a is mostly its turn,
   which then earns no utility (the normalised utility even divides it out), so the robot
-  circles the goal at ~0.3 m; measured worse (README, "The continuous wheeled robot").
+  circles the goal at ~0.3 m; measured worse (docs/paper.md, "The wheeled robot").
 
 Utility. The robot's default is the paper's ``raw`` inner product u = W_v^T d (the grid's
 default divides by W_v's column norms). Near the goal the discrete arcs (0.41-0.60 m
 chords) against the 0.25 m circle make 2-cycles; the normalised utility ranks actions by
-direction alone and falls into them more often (measured in the README).
+direction alone and falls into them more often (measured in docs/paper.md).
 
 Scaling. o is centred on the arena and divided by its side, as the grid does; the
 heading's unit vector is divided by the side too (h = 1/30), so one radian of turning

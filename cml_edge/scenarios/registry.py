@@ -50,7 +50,7 @@ BUDGETS = {
     "tiny": Budget(3, 100, 6),
 }
 """``full``: the paper's protocol (100 walks x 900 steps, 100 pairs or goals). ``quick``:
-30 walks (where the float64 model's e_pos reaches 0 on the 30 x 30 arena, README) and
+30 walks (where the float64 model's e_pos reaches 0 on the 30 x 30 arena, docs/paper.md) and
 50 trials, a third of the cost. ``tiny``: a smoke test of the machinery (tests), whose
 numbers mean nothing about a device."""
 

@@ -120,7 +120,7 @@ class DeviceConfig:
     """The same for W_v (index 2). The CML's learned W_v is far smaller than its
     N(0, 0.1^2) init (W_v a learns W_q delta), so the device presets set 0.02: resolution
     where the learned weights live; the init is clipped at programming (the sizes
-    measured, and what this does to convergence: README, "On the crossbar")."""
+    measured, and what this does to convergence: docs/devices/crossbar.md)."""
 
     # the in-situ update --------------------------------------------------------------
     update: str = option("analog", choices=UPDATES)

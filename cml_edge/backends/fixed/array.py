@@ -10,7 +10,7 @@ the arithmetic, step by step: :mod:`cml_edge.backends.fixed.kernels`.
 The choices (exponent rule and headroom, accumulator and learning-rate widths,
 activations, the sigmoid table) are the fields of
 :class:`~cml_edge.backends.fixed.config.FixedConfig`, each documented with its default;
-how they do on the paper's protocol is measured in the README ("In fixed point").
+how they do on the paper's protocol is measured in docs/devices/fixed.md.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ or its named flag: ``--bits``, ``--rounding``...). The kernels read
 :class:`FixedParams`, the record of the config's numeric fields plus what an array
 derives from its matrix (its exponent, the formats' limits, the read accumulator's
 checks and shifts; :func:`fixed_params`). How well each choice does on the paper's
-protocol is measured in the README ("In fixed point").
+protocol is measured in docs/devices/fixed.md.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class FixedConfig:
     """Width of the per-walk learning accumulator, bits+1..32, which keeps
     F = acc_bits - bits - 1 fractional bits below the weight's LSB (23 at int8; its
     integer part holds twice the weight range). Default 32, one rounding per commit;
-    Loihi's 16 bits round twice (measured against 32 in the README)."""
+    Loihi's 16 bits round twice (measured against 32 in docs/devices/fixed.md)."""
     mac_bits: int = option(32, flag="--mac-bits", metavar="N",
                            help="read accumulator bits 16..64 (default 32)")
     """Width of the read (multiply-accumulate) accumulator, 16..64. Default 32: at the
