@@ -298,16 +298,20 @@ class Protocol(Record):
     obstacles: int = 0
     """Point obstacles placed from ``eval_seed`` on the evaluation arena."""
     train: TrainConfig = TrainConfig()
+    """Walks, steps per walk, exploration and update schedule (paper 2.2)."""
     utility: str = "normalized"
     """The planning utility of :class:`~cml_edge.core.cml.CMLConfig`; the rest of the
     config is :meth:`~cml_edge.core.cml.CMLConfig.for_arena` of ``arena_size``."""
     eval_seed: int = EVAL_SEED
+    """The seed of the pairs and obstacles: every backend and method sees the same."""
     path: str | None = None
     """The compute path; None: :func:`default_path` of a counted run (``direct``)."""
     idle_s: float = 0.0
     """Seconds between the end of training and the evaluation (each array's ``elapse``)."""
     planner: str = "paper"
+    """A planner of :data:`~cml_edge.grid.planning.PLANNERS`."""
     max_steps: int = MAX_STEPS
+    """The planning step budget."""
     epoch: int = 10
     """Walks between the curve's points."""
     backend_options: Mapping[str, Any] = field(default_factory=dict)

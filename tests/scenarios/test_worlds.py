@@ -18,6 +18,15 @@ GOLDEN = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" /
 VARIES = ("wall_time_s", "cml_edge_version")
 
 
+def _numbers(result):
+    """The result without what varies with the run and the checkout: its time, the version
+    and where the DQN's results file is."""
+    out = {k: v for k, v in result.items() if k not in VARIES}
+    if "dqn_retrain" in out:
+        out["dqn_retrain"] = {k: v for k, v in out["dqn_retrain"].items() if k != "source"}
+    return out
+
+
 def test_every_world_meets_the_protocol_and_is_named():
     methods = [m for m in vars(World) if not m.startswith("_") and callable(getattr(World, m))]
     assert set(methods) == {"train", "twin", "relearn", "plan", "summarise", "pool"}
@@ -48,6 +57,5 @@ def test_the_robot_does_not_relearn():
 @pytest.mark.parametrize("name", sorted(GOLDEN))
 def test_the_same_json_as_before(name):
     result = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
-    want = {k: v for k, v in GOLDEN[name].items() if k not in VARIES}
-    got = {k: v for k, v in result.items() if k not in VARIES}
-    assert json.dumps(got, indent=1) == json.dumps(want, indent=1)  # keys, order, values
+    assert json.dumps(_numbers(result), indent=1) == \
+        json.dumps(_numbers(GOLDEN[name]), indent=1)  # keys, order, values

@@ -12,7 +12,8 @@ Run from that release's checkout, with its own ``cml_edge`` on ``sys.path``:
 ``run_protocol`` returned for them (``result``, without ``wall_time_s``), so that the
 test can check that ``run_protocol(Protocol.from_dict(protocol))`` returns the same JSON,
 key for key and value for value. ``scenarios.json``: ``run_scenario`` of a grid scenario
-and the robot's on the tiny budget (without ``wall_time_s``).
+and the robot's on the tiny budget (without ``wall_time_s``; the DQN results file's path
+relative to the checkout).
 """
 
 from __future__ import annotations
@@ -98,6 +99,9 @@ scenarios = {}
 for name in ("recovery", "robot"):
     result = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
     result.pop("wall_time_s")
+    if "dqn_retrain" in result:  # the DQN's results file, not this machine's path to it
+        source = Path(result["dqn_retrain"]["source"])
+        result["dqn_retrain"]["source"] = str(source.relative_to(SRC))
     scenarios[name] = result
     print(name, flush=True)
 (OUT / "scenarios.json").write_text(json.dumps(scenarios, indent=1) + "\n")
