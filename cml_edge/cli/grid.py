@@ -6,6 +6,7 @@ import argparse
 import json
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,7 @@ from cml_edge.core.learning import SCHEDULES
 from cml_edge.core.model_file import load_model, save_model
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Evaluation, default_path, run_protocol
+from cml_edge.grid.evaluation import Evaluation, Protocol, default_path, run_protocol
 from cml_edge.grid.exploration import EXPLORATIONS
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
@@ -300,7 +301,7 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     if args.out:
         writable_file(args.out, "--out")
     options = backend_options(args)
-    grid, scen_pairs = _load_map_args(args)
+    grid, _ = _load_map_args(args)  # checks --map and --scen; the protocol loads them
     size = args.arena
     if grid is not None:
         if args.arena not in (30, grid.side):  # 30: the default, replaced by the map's side
@@ -308,22 +309,20 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
                              f"{grid.side}); leave --arena out")
         size = grid.side
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
+    on_map = grid is not None
+    protocol = Protocol(
+        backend=args.backend, seeds=range(args.seeds), trials=args.trials, arena_size=size,
+        obstacles=args.obstacles, train=config, utility=args.utility,
+        eval_seed=args.eval_seed, path=args.path, idle_s=args.drift_time,
+        planner=args.planner, max_steps=_budget(args, size, on_map), backend_options=options,
+        map=args.map if on_map else None, scen=args.scen if on_map else None)
     chips = chips_options(args)
     if chips is not None:
-        if grid is not None:
+        if on_map:
             raise InputError("--chips runs the protocol's arenas; --map is not supported with it")
-        return _emulate_chips(args, config, options, chips)
-    result = run_protocol(args.backend, range(args.seeds), args.trials, size,
-                          args.obstacles, config,
-                          CMLConfig.for_arena(size, utility=args.utility),
-                          eval_seed=args.eval_seed, path=args.path, idle_s=args.drift_time,
-                          progress=Progress(f"emulate {args.backend}"),
-                          planner=args.planner,
-                          max_steps=_budget(args, size, grid is not None),
-                          eval_arena=grid.arena() if grid is not None else None,
-                          pairs=scen_pairs, **options)
-    if grid is not None:
-        result.update({"map": args.map, "scen": args.scen})
+        # a chip's curve has one point, at the end of training
+        return _emulate_chips(args, replace(protocol, epoch=config.walks), chips)
+    result = run_protocol(protocol, progress=Progress(f"emulate {args.backend}"))
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
@@ -331,19 +330,11 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
-def _emulate_chips(args: argparse.Namespace, config: TrainConfig, options: dict[str, Any],
+def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
                    chips: dict[str, Any]) -> dict[str, Any]:
     """``emulate --chips N``: the protocol on N chips (:mod:`cml_edge.grid.chips`)."""
-    from dataclasses import asdict
-
     from cml_edge.grid.chips import run_chips
 
-    protocol = {"backend": args.backend, "seeds": list(range(args.seeds)),
-                "trials": args.trials, "arena_size": args.arena, "obstacles": args.obstacles,
-                "train": asdict(config), "utility": args.utility, "eval_seed": args.eval_seed,
-                "path": args.path, "idle_s": args.drift_time, "planner": args.planner,
-                "max_steps": _budget(args, args.arena, False), "epoch": config.walks,
-                "backend_options": options}
     result = {"backend": args.backend, **run_chips(
         protocol=protocol, progress=Progress(f"emulate {args.backend} chips"), **chips)}
     result["command"] = command_line()

@@ -5,8 +5,8 @@ per-walk updates, seed = model seed) and evaluates it under a list of evaluation
 conditions (an arena, obstacles, a map and its scenarios, a planner, a step budget),
 all on pairs drawn from the evaluation seed, so every configuration sees the same
 pairs. It returns per-trial finals and steps, so the pooled metrics over seeds
-(:func:`pool`) are the exact ones of :func:`cml_edge.grid.metrics.summarize` over all
-seeds x trials, whatever ran the tasks.
+(:func:`~cml_edge.grid.evaluation.pool_records`) are the exact ones of
+:func:`cml_edge.grid.metrics.summarize` over all seeds x trials, whatever ran the tasks.
 
 An experiment module defines ``NAME``, ``CLAIM`` (the paper's qualitative claim it
 checks), ``tasks(**options) -> list[Task]``, ``rows(results) -> list[dict]`` (usually
@@ -29,9 +29,14 @@ from cml_edge.core.cml import CMLConfig
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
-from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
-from cml_edge.grid.metrics import Pairs, draw_pairs, summarize
+from cml_edge.grid.evaluation import (
+    Evaluation,
+    Training,
+    eval_setting,
+    pool_records,
+    train_and_evaluate,
+)
+from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.training import TrainConfig
 from cml_edge.io.figures import pyplot
 from cml_edge.io.files import atomic_write_text
@@ -55,23 +60,6 @@ def eval_spec(name: str, *, size: int | None = None, obstacles: int = 0,
             "eval_seed": eval_seed}
 
 
-def _eval_setting(spec: dict[str, Any], train_size: int) -> tuple[GridArena, Pairs, int]:
-    if spec.get("map"):
-        grid = load_map(resolve_map(spec["map"]))
-        arena = grid.arena()
-        if spec.get("scen"):
-            pairs = scenario_pairs(grid, load_scen(spec["scen"]), Path(spec["scen"]).name)
-        else:
-            pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
-    else:
-        size = spec.get("size") or train_size
-        arena = (GridArena.with_obstacles(size, spec["obstacles"], spec["eval_seed"])
-                 if spec["obstacles"] else GridArena.empty(size))
-        pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
-    budget = spec.get("max_steps") or step_budget(arena.size)
-    return arena, pairs, budget
-
-
 def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: int = 100,
                steps: int = 900, explore: str = "random", backend: str = "float",
                backend_options: dict[str, Any] | None = None, path: str | None = None,
@@ -90,7 +78,7 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
     training = Training(train_arena, TrainConfig(walks, steps, explore),
                         CMLConfig.for_arena(arena, **(cml_options or {})), backend,
                         backend_options or {}, path, epoch)
-    settings = [_eval_setting(spec, arena) for spec in evals]
+    settings = [eval_setting(spec, arena) for spec in evals]
     evaluations = [Evaluation(ev_arena, pairs, budget, spec["planner"])
                    for spec, (ev_arena, pairs, budget) in zip(evals, settings)]
     curve_eval = (Evaluation(train_arena, draw_pairs(train_arena, curve_trials, eval_seed))
@@ -131,15 +119,6 @@ def config_id(key: str) -> str:
     return key.rsplit("-s", 1)[0]
 
 
-def pool(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """The metrics of :func:`summarize` over the trials of several seeds' records."""
-    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2) for r in records])
-    steps = np.concatenate([np.asarray(r["steps"], np.int64) for r in records])
-    pairs = Pairs(*(np.concatenate([np.asarray(r[k], np.int64) for r in records])
-                    for k in ("starts", "goals", "chebyshev", "geodesic")))
-    return summarize(final, steps, pairs)
-
-
 def summary_rows(results: dict[str, dict[str, Any]], config_fields: tuple[str, ...]
                  ) -> list[dict[str, Any]]:
     """One row per (configuration, evaluation): pooled metrics over the seeds."""
@@ -158,7 +137,7 @@ def summary_rows(results: dict[str, dict[str, Any]], config_fields: tuple[str, .
                "eval_arena": first["eval_arena"], "obstacles": first["obstacles"],
                "map": first["map"], "planner": first["planner"],
                "max_steps": first["max_steps"], "seeds": len(recs)}
-        pooled = pool(recs)
+        pooled = pool_records(recs)
         row.update({k: pooled[k] for k in METRICS})
         rows.append(row)
     return rows

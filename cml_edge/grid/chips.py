@@ -17,12 +17,13 @@ seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
 
 Each chip is one task of the sweep engine (:mod:`cml_edge.engine.sweep`: local pool or Dask,
 resumable, one atomic file per chip), running :func:`cml_edge.grid.evaluation.run_protocol`
-for its chip seed. :func:`pool_chips` pools the per-chip summaries generically: every
-numeric key of the protocol's per-seed summaries (the success rate, e_pos, the
-decision agreement, ...; a nested record's as ``key.sub``, so the weight error against
-the float64 twin is ``weight_error.matrix_mean``) gets its
-distribution over chips (each chip's mean over its models); the **yield** is the
-fraction of chips whose success rate is at least the yield target.
+on the run's :class:`~cml_edge.grid.evaluation.Protocol` with its chip seed.
+:func:`pool_chips` pools the per-chip summaries generically: every numeric key of the
+protocol's per-seed summaries (the success rate, e_pos, the decision agreement, ...; a
+nested record's as ``key.sub``, so the weight error against the float64 twin is
+``weight_error.matrix_mean``) gets its distribution over chips (each chip's mean over
+its models); the **yield** is the fraction of chips whose success rate is at least the
+yield target.
 """
 
 from __future__ import annotations
@@ -32,13 +33,17 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
+
+if TYPE_CHECKING:
+    from cml_edge.grid.evaluation import Protocol
 
 DEFAULT_YIELD_TARGET = 0.95
 CHIPS_FOLDER = Path("runs") / "chips"
@@ -58,17 +63,12 @@ def check_chips(n: int, yield_target: float, first: int = 0) -> None:
 
 
 def chip_task(chip: int, protocol: dict[str, Any]) -> dict[str, Any]:
-    """One chip through the protocol (a sweep task): ``run_protocol(**protocol)`` on chip
-    seed ``chip``, its pooled summary and per-seed summaries (no curves, no counters)."""
-    from cml_edge.core.cml import CMLConfig
-    from cml_edge.grid.evaluation import run_protocol
-    from cml_edge.grid.training import TrainConfig
+    """One chip through the protocol (a sweep task): the protocol (as
+    :meth:`~cml_edge.grid.evaluation.Protocol.to_dict`) on chip seed ``chip``, its pooled
+    summary and per-seed summaries (no curves, no counters)."""
+    from cml_edge.grid.evaluation import Protocol, run_protocol
 
-    p = dict(protocol)
-    train = TrainConfig(**p.pop("train"))
-    cml_config = CMLConfig.for_arena(p["arena_size"], utility=p.pop("utility"))
-    options = p.pop("backend_options")
-    result = run_protocol(train_config=train, cml_config=cml_config, chip=chip, **p, **options)
+    result = run_protocol(replace(Protocol.from_dict(protocol), chip=chip))
     summary = {k: v for k, v in result.items()
                if isinstance(v, (int, float)) and not isinstance(v, bool)}
     return {"chip": chip, **summary, "per_seed": result["per_seed"]}
@@ -140,19 +140,22 @@ def protocol_key(protocol: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def run_chips(n: int, protocol: dict[str, Any], yield_target: float = DEFAULT_YIELD_TARGET,
+def run_chips(n: int, protocol: Protocol, yield_target: float = DEFAULT_YIELD_TARGET,
               first: int = 0, out: str | Path | None = None, workers: int | None = None,
               scheduler: str | None = None,
               progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
-    """Chips ``first`` .. ``first + n - 1`` through the protocol (``run_protocol``'s
-    keyword arguments, JSON-able: ``train`` as TrainConfig fields, ``utility``,
-    ``backend_options``), on the sweep engine; task files under ``out`` (default
+    """Chips ``first`` .. ``first + n - 1`` through ``protocol`` (its ``chip`` left unset:
+    each chip is one), on the sweep engine; task files under ``out`` (default
     ``runs/chips/KEY``, KEY from the protocol), so a rerun resumes. Returns the pooled
     result (:func:`pool_chips`) with the protocol, the folder and the wall time."""
     check_chips(n, yield_target, first)
-    folder = Path(out) if out is not None else CHIPS_FOLDER / protocol_key(protocol)
+    if protocol.chip is not None:
+        raise InputError(f"the protocol's chip {protocol.chip} is set (allowed: None; each "
+                         f"chip of the run is given its chip seed)")
+    settings = protocol.to_dict()
+    folder = Path(out) if out is not None else CHIPS_FOLDER / protocol_key(settings)
     t0 = time.perf_counter()
-    done = run_sweep(chip_tasks(n, protocol, first), folder, workers=workers,
+    done = run_sweep(chip_tasks(n, settings, first), folder, workers=workers,
                      scheduler=scheduler, progress=progress)
-    return {**pool_chips(list(done.values()), yield_target), "protocol": protocol,
+    return {**pool_chips(list(done.values()), yield_target), "protocol": settings,
             "out": str(folder), "wall_time_s": time.perf_counter() - t0}

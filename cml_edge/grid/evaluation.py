@@ -8,13 +8,17 @@ arena (with obstacles if asked, placed from the evaluation seed). Pairs come fro
 evaluation seed, so every method and backend sees the same pairs. Pooled metrics are
 over all seeds x trials. ``idle_s`` seconds pass between the end of training and the
 evaluation (each array's ``elapse``: drift on a crossbar, nothing on a digital array).
+A run's settings are one JSON-able record, :class:`Protocol`; :func:`run_protocol` runs
+it.
 
 The evaluation arena may differ from the training arena: a larger empty arena
-(``eval_size``, the generalisation experiment of Figure 7) or a map
-(``eval_arena``, e.g. :meth:`cml_edge.grid.maps.GridMap.arena`) of the training size,
-with its own pairs (``pairs``, e.g. a MovingAI scenario file). The CML never sees either
-while training: it is trained in the empty arena of ``arena_size``. ``planner`` and
-``max_steps`` choose the planner and its step budget (:mod:`cml_edge.grid.planning`).
+(``eval_size``, the generalisation experiment of Figure 7) or a map (``map``, a MovingAI
+map of the training size, with its own pairs from a ``scen`` file if given). The CML
+never sees either while training: it is trained in the empty arena of ``arena_size``.
+``planner`` and ``max_steps`` choose the planner and its step budget
+(:mod:`cml_edge.grid.planning`). :func:`eval_setting` makes such an evaluation condition
+from its JSON description, and :func:`pool_records` pools the per-trial records of
+several seeds.
 
 One seed's run is :func:`train_and_evaluate`: make the CML, train it (a curve point
 every ``epoch`` walks, training time measured without them), let ``idle_s`` pass, plan
@@ -27,23 +31,31 @@ each :class:`Evaluation`. Every command that trains and evaluates grid CMLs runs
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
+from numbers import Integral, Real
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.backends import backend_spec
+from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.learning import schedule_defers
+from cml_edge.core.records import Record
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
+from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
 from cml_edge.grid.metrics import Pairs, draw_pairs, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, PlanResult, plan
-from cml_edge.grid.training import TrainConfig, train
+from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.protocol import EVAL_SEED
+
+TRAIN_FIELDS = tuple(f.name for f in fields(TrainConfig))
 
 
 def factored_supported(cml: CML, schedule: str = "walk") -> bool:
@@ -233,108 +245,267 @@ def pool_pairs(pairs: Pairs, times: int) -> Pairs:
                    (pairs.starts, pairs.goals, pairs.chebyshev, pairs.geodesic)))
 
 
-def run_protocol(backend: str = "float", seeds: Sequence[int] = range(10), trials: int = 100,
-                 arena_size: int = 30, obstacles: int = 0,
-                 train_config: TrainConfig | None = None, cml_config: CMLConfig | None = None,
-                 eval_seed: int = EVAL_SEED, path: str | None = None, epoch: int = 10,
-                 idle_s: float = 0.0,
-                 progress: Callable[[int, int], None] | None = None,
-                 planner: str = "paper", max_steps: int = MAX_STEPS,
-                 eval_size: int | None = None, eval_arena: GridArena | None = None,
-                 pairs: Pairs | None = None, chip: int | None = None, fidelity: bool = True,
-                 **backend_options: Any) -> dict[str, Any]:
-    """Train and evaluate one model per seed; the JSON-ready result of ``emulate``.
+def eval_setting(spec: Mapping[str, Any], train_size: int) -> tuple[GridArena, Pairs, int]:
+    """The arena, pairs and step budget of an evaluation condition (a JSON-able ``spec``:
+    ``map`` and ``scen``, or ``size`` (None: ``train_size``) and ``obstacles``;
+    ``trials`` pairs from ``eval_seed`` unless a ``scen`` file gives them; ``max_steps``
+    None: :func:`~cml_edge.grid.maps.step_budget` of the arena)."""
+    if spec.get("map"):
+        grid = load_map(resolve_map(spec["map"]))
+        arena = grid.arena()
+        if spec.get("scen"):
+            pairs = scenario_pairs(grid, load_scen(spec["scen"]), Path(spec["scen"]).name)
+        else:
+            pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
+    else:
+        size = spec.get("size") or train_size
+        arena = (GridArena.with_obstacles(size, spec["obstacles"], spec["eval_seed"])
+                 if spec["obstacles"] else GridArena.empty(size))
+        pairs = draw_pairs(arena, spec["trials"], spec["eval_seed"])
+    budget = spec.get("max_steps") or step_budget(arena.size)
+    return arena, pairs, budget
 
-    Obstacles (``obstacles`` > 0) are placed from ``eval_seed`` on the evaluation arena:
-    the empty arena of ``eval_size`` (default ``arena_size``), or ``eval_arena``. The
-    result carries the arrays' counters, so ``path`` defaults to ``direct``
-    (:func:`default_path`); its keys ``compute_path`` and ``path`` (the older name) both
-    name it. ``chip``: every model on the chip of that chip seed (None: each on its own,
-    the chip of its model seed; :mod:`cml_edge.grid.chips`). With ``fidelity`` (the
-    default), each seed is also measured against its float64 twin (:func:`run_fidelity`):
-    the keys ``weight_error``, ``decision_agreement`` and ``read_snr`` (seed means and
-    spreads; per seed in ``per_seed``) are added, and no other number changes.
-    ``progress(done, total)`` counts units of work over all seeds: each seed's training
-    epochs (one every ``epoch`` walks), then its evaluation (with the fidelity); it is
-    called with 0 first, then after each unit.
+
+def pool_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The metrics of :func:`~cml_edge.grid.metrics.summarize` (Eqs. 8, 9) over the trials
+    of several seeds' JSON records (each with its ``final``, ``steps``, ``starts``,
+    ``goals``, ``chebyshev`` and ``geodesic`` lists)."""
+    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2) for r in records])
+    steps = np.concatenate([np.asarray(r["steps"], np.int64) for r in records])
+    pairs = Pairs(*(np.concatenate([np.asarray(r[k], np.int64) for r in records])
+                    for k in ("starts", "goals", "chebyshev", "geodesic")))
+    return summarize(final, steps, pairs)
+
+
+def _integer(name: str, value: Any, least: int, allowed: str | None = None) -> int:
+    """``value`` as an int; InputError unless it is an integer >= ``least``."""
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
+        raise InputError(f"{name} {value!r} is not allowed (allowed: "
+                         f"{allowed or f'an integer >= {least}'})")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class Protocol(Record):
+    """The settings of one run of the evaluation protocol (:func:`run_protocol`), JSON-able
+    (:meth:`to_dict`, :meth:`from_dict`; ``train`` as the fields of a
+    :class:`~cml_edge.grid.training.TrainConfig`). Checked when made: a bad value raises
+    :class:`~cml_edge.errors.InputError` naming it."""
+
+    what = "protocol"
+
+    backend: str = "float"
+    seeds: tuple[int, ...] = tuple(range(10))
+    """The model seeds, one trained model each."""
+    trials: int = 100
+    """(start, goal) pairs drawn from ``eval_seed`` (a ``scen`` file brings its own)."""
+    arena_size: int = 30
+    """The side of the empty training arena (and of the evaluation arena by default)."""
+    obstacles: int = 0
+    """Point obstacles placed from ``eval_seed`` on the evaluation arena."""
+    train: TrainConfig = TrainConfig()
+    """Walks, steps per walk, exploration and update schedule (paper 2.2)."""
+    utility: str = "normalized"
+    """The planning utility of :class:`~cml_edge.core.cml.CMLConfig`; the rest of the
+    config is :meth:`~cml_edge.core.cml.CMLConfig.for_arena` of ``arena_size``."""
+    eval_seed: int = EVAL_SEED
+    """The seed of the pairs and obstacles: every backend and method sees the same."""
+    path: str | None = None
+    """The compute path; None: :func:`default_path` of a counted run (``direct``)."""
+    idle_s: float = 0.0
+    """Seconds between the end of training and the evaluation (each array's ``elapse``)."""
+    planner: str = "paper"
+    """A planner of :data:`~cml_edge.grid.planning.PLANNERS`."""
+    max_steps: int = MAX_STEPS
+    """The planning step budget."""
+    epoch: int = 10
+    """Walks between the curve's points."""
+    backend_options: Mapping[str, Any] = field(default_factory=dict)
+    """The device's config fields (``{"preset": "pcm"}``)."""
+    eval_size: int | None = None
+    """The side of an empty evaluation arena larger or smaller than the training arena
+    (None: ``arena_size``)."""
+    map: str | None = None
+    """A map to evaluate on (a MovingAI ``.map`` file or a shipped map's name,
+    :func:`~cml_edge.grid.maps.resolve_map`), of the training arena's side."""
+    scen: str | None = None
+    """A MovingAI ``.scen`` file of ``map``: its problems replace the drawn pairs."""
+    chip: int | None = None
+    """Every model on the chip of this chip seed (None: each on the chip of its model
+    seed; :mod:`cml_edge.grid.chips`)."""
+    fidelity: bool = True
+    """Measure each seed against its float64 twin (:func:`run_fidelity`)."""
+
+    def __post_init__(self) -> None:
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        if not isinstance(self.backend, str):
+            raise InputError(f"backend {self.backend!r} is not a name")
+        backend_spec(self.backend)
+        if isinstance(self.seeds, (str, bytes)):
+            raise InputError(f"seeds {self.seeds!r} is not a list of model seeds")
+        put("seeds", tuple(_integer("seed", s, 0) for s in self.seeds))
+        if not self.seeds:
+            raise InputError("no seeds given (allowed: one or more model seeds)")
+        for name, least in (("trials", 1), ("arena_size", 2), ("obstacles", 0),
+                            ("eval_seed", 0), ("max_steps", 1), ("epoch", 1)):
+            put(name, _integer(name, getattr(self, name), least))
+        if not isinstance(self.train, TrainConfig):
+            raise InputError(f"train {self.train!r} is not a TrainConfig")
+        if self.utility not in UTILITIES:
+            raise InputError(f"unknown utility {self.utility!r}; allowed: "
+                             f"{', '.join(UTILITIES)}")
+        if self.path is not None and self.path not in PATHS:
+            raise InputError(f"unknown path {self.path!r}; allowed: {', '.join(PATHS)}")
+        if isinstance(self.idle_s, bool) or not isinstance(self.idle_s, Real) \
+                or not math.isfinite(self.idle_s) or self.idle_s < 0:
+            raise InputError(f"idle_s {self.idle_s!r} is not allowed (allowed: a finite "
+                             f"number >= 0 seconds)")
+        put("idle_s", float(self.idle_s))
+        if self.planner not in PLANNERS:
+            raise InputError(f"unknown planner {self.planner!r}; allowed: "
+                             f"{', '.join(PLANNERS)}")
+        if not isinstance(self.backend_options, Mapping):
+            raise InputError(f"backend_options {self.backend_options!r} is not a mapping")
+        put("backend_options", dict(self.backend_options))
+        if self.eval_size is not None:
+            put("eval_size", _integer("eval_size", self.eval_size, 2))
+        for name in ("map", "scen"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, str) and value):
+                raise InputError(f"{name} {value!r} is not a file name")
+        if self.scen is not None and self.map is None:
+            raise InputError("a scen file needs a map")
+        if self.map is not None:
+            if self.eval_size is not None:
+                raise InputError("give eval_size or map, not both")
+            if self.obstacles:
+                raise InputError("obstacles are placed on an empty arena, not on a map")
+        if self.chip is not None:
+            put("chip", _integer("chip", self.chip, 0, "a chip seed >= 0"))
+        if not isinstance(self.fidelity, bool):
+            raise InputError(f"fidelity {self.fidelity!r} is not true or false")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        return {**d, "seeds": list(self.seeds)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Protocol:
+        d = dict(d)
+        if "train" in d:
+            train = d["train"]
+            if not isinstance(train, Mapping) or set(train) - set(TRAIN_FIELDS):
+                raise InputError(f"train {train!r} is not allowed (allowed: a mapping of "
+                                 f"{', '.join(TRAIN_FIELDS)})")
+            d["train"] = TrainConfig(**train)
+        return super().from_dict(d)
+
+    def cml_config(self) -> CMLConfig:
+        """The CML's config: :meth:`~cml_edge.core.cml.CMLConfig.for_arena` of the training
+        arena with the protocol's utility."""
+        return CMLConfig.for_arena(self.arena_size, utility=self.utility)
+
+    def training(self) -> Training:
+        """What every seed of the run shares: the empty training arena, the configs, the
+        device and the compute path (None: :func:`default_path` of a counted run)."""
+        path = self.path or default_path(self.backend, self.train.schedule,
+                                         self.backend_options, counted=True)
+        return Training(GridArena.empty(self.arena_size), self.train, self.cml_config(),
+                        self.backend, self.backend_options, path, self.epoch, self.chip)
+
+    def evaluation(self) -> Evaluation:
+        """Where the trained models are evaluated (:func:`eval_setting`): the map (its
+        ``scen`` problems, or drawn pairs), or the empty arena of ``eval_size`` (default
+        ``arena_size``) with the ``obstacles``; with the planner and ``max_steps``."""
+        spec = {"map": self.map, "scen": self.scen, "size": self.eval_size,
+                "obstacles": self.obstacles, "trials": self.trials,
+                "eval_seed": self.eval_seed, "max_steps": self.max_steps}
+        return Evaluation(*eval_setting(spec, self.arena_size), self.planner)
+
+
+def run_protocol(protocol: Protocol = Protocol(),
+                 progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Train and evaluate one model per seed of ``protocol``; the JSON-ready result of
+    ``emulate``.
+
+    Every model is trained on the empty arena of ``arena_size``, planning the training
+    arena's pairs every ``epoch`` walks (the curve), and evaluated once on
+    :meth:`Protocol.evaluation`. The result carries the arrays' counters, so the compute
+    path defaults to ``direct`` (:func:`default_path`); its keys ``compute_path`` and
+    ``path`` (the older name) both name it. With ``fidelity`` (the default), each seed is
+    also measured against its float64 twin (:func:`run_fidelity`): the keys
+    ``weight_error``, ``decision_agreement`` and ``read_snr`` (seed means and spreads; per
+    seed in ``per_seed``) are added, and no other number changes. On a map, ``map`` and
+    ``scen`` close the result. ``progress(done, total)`` counts units of work over all
+    seeds: each seed's training epochs (one every ``epoch`` walks), then its evaluation
+    (with the fidelity); it is called with 0 first, then after each unit.
     """
-    if planner not in PLANNERS:
-        raise InputError(f"unknown planner {planner!r}; allowed: {', '.join(PLANNERS)}")
-    train_config = train_config or TrainConfig()
-    cml_config = cml_config or CMLConfig.for_arena(arena_size)
-    path = path or default_path(backend, train_config.schedule, backend_options, counted=True)
-    train_arena = GridArena.empty(arena_size)
-    if eval_arena is not None and eval_size is not None:
-        raise InputError("give eval_size or eval_arena, not both")
-    if eval_arena is None:
-        size = eval_size or arena_size
-        eval_arena = (GridArena.with_obstacles(size, obstacles, eval_seed) if obstacles
-                      else GridArena.empty(size))
-    elif obstacles:
-        raise InputError("obstacles are placed on an empty arena, not on a map")
-    curve = Evaluation(train_arena, draw_pairs(train_arena, trials, eval_seed))
-    if pairs is None:
-        pairs = draw_pairs(eval_arena, trials, eval_seed)
-    evaluation = Evaluation(eval_arena, pairs, max_steps, planner)
-    training = Training(train_arena, train_config, cml_config, backend, backend_options, path,
-                        epoch, chip)
+    p = protocol
+    training = p.training()
+    path = training.path
+    train_arena = training.arena
+    evaluation = p.evaluation()
+    curve = Evaluation(train_arena, draw_pairs(train_arena, p.trials, p.eval_seed))
+    pairs = evaluation.pairs
     trials = len(pairs.starts)
-    seeds = list(seeds)
-    if not seeds:
-        raise InputError("no seeds given (allowed: one or more model seeds)")
+    seeds = p.seeds
     finals, steps, per_seed, curves, train_errors, fids = [], [], [], [], [], []
     counters: dict[str, int] = {}
-    units = -(-train_config.walks // epoch) + 1  # per seed: its epochs, its evaluation
+    units = -(-p.train.walks // p.epoch) + 1  # per seed: its epochs, its evaluation
     total = units * len(seeds)
     tick = progress or (lambda done, total: None)
     tick(0, total)
     t0 = time.perf_counter()
     for n, seed in enumerate(seeds):
-        run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=idle_s,
-                                 on_epoch=lambda walks, n=n: tick(n * units + -(-walks // epoch),
+        run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=p.idle_s,
+                                 on_epoch=lambda walks, n=n: tick(n * units + -(-walks // p.epoch),
                                                                   total))
         (res,), (summary,) = run.results, run.summaries
         finals.append(res.final)
         steps.append(res.steps)
         per_seed.append({"seed": int(seed), **summary})
-        if fidelity:
+        if p.fidelity:
             (fid,) = run_fidelity(run, training, [evaluation])
             fids.append(fid)
             per_seed[-1].update(fid)
-        curves.append([p["e_pos_mean"] for p in run.curve])
+        curves.append([point["e_pos_mean"] for point in run.curve])
         train_errors.append(run.train_error.tolist())
         for k, v in run.counters.items():
             counters[k] = counters.get(k, 0) + v
         tick((n + 1) * units, total)
     pooled = summarize(np.concatenate(finals), np.concatenate(steps),
                        pool_pairs(pairs, len(seeds)))
-    extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if fidelity else {}
+    extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if p.fidelity else {}
+    on_map = {"map": p.map, "scen": p.scen} if p.map is not None else {}
     return {
-        "backend": backend,
+        "backend": p.backend,
         "seeds": len(seeds),
         "seed_list": [int(s) for s in seeds],
         **pooled,
         "trials": int(trials),
-        "arena": int(arena_size),
-        "eval_arena": int(eval_arena.size),
-        "obstacles": int(obstacles),
-        "planner": planner,
-        "max_steps": int(max_steps),
-        "eval_seed": int(eval_seed),
-        "explore": train_config.explore,
-        "walks": train_config.walks,
-        "steps": train_config.steps,
-        "schedule": train_config.schedule,
-        "utility": cml_config.utility,
+        "arena": int(p.arena_size),
+        "eval_arena": int(evaluation.arena.size),
+        "obstacles": int(p.obstacles),
+        "planner": p.planner,
+        "max_steps": int(p.max_steps),
+        "eval_seed": int(p.eval_seed),
+        "explore": p.train.explore,
+        "walks": p.train.walks,
+        "steps": p.train.steps,
+        "schedule": p.train.schedule,
+        "utility": p.utility,
         "compute_path": path,
         "path": path,
-        "epoch_walks": epoch,
-        "idle_s": float(idle_s),
+        "epoch_walks": p.epoch,
+        "idle_s": float(p.idle_s),
         "curve_e_pos_mean": np.mean(curves, axis=0).tolist(),
         "train_error": np.mean(train_errors, axis=0).tolist(),
         "per_seed": per_seed,
         "counters": counters,
-        "backend_options": backend_options,
+        "backend_options": dict(p.backend_options),
         "wall_time_s": time.perf_counter() - t0,
         **extra,
+        **on_map,
     }

@@ -38,6 +38,7 @@ from cml_edge.costs import ledger
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     Evaluation,
+    Protocol,
     Training,
     default_path,
     run_protocol,
@@ -83,7 +84,8 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
             progress: Callable[[str], None]) -> dict[str, Any]:
     """Accuracy on the protocol and the ledger of one CML system."""
     progress(f"{label}: protocol")
-    acc = run_protocol(backend, range(seeds), trials, epoch=1, **options)
+    acc = run_protocol(Protocol(backend, range(seeds), trials, epoch=1,
+                                backend_options=options))
     progress(f"{label}: operations")
     ops = measure_operations(backend, options)
     model = ops["cost_model"]
@@ -202,7 +204,8 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     sweep_rows = []
     for figure, label, backend, opts in sweeps:
         progress(f"sweep {label}")
-        r = run_protocol(backend, range(prof["sweep_seeds"]), prof["trials"], **opts)
+        r = run_protocol(Protocol(backend, range(prof["sweep_seeds"]), prof["trials"],
+                                  backend_options=opts))
         sweep_rows.append({"figure": figure, "label": label, "backend": backend,
                            "options": opts, **{k: r[k] for k in (
                                "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})

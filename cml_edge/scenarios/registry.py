@@ -1,11 +1,13 @@
 """The eight scenarios as data: what each trains, how it evaluates, and why.
 
-A scenario is a list of **runs**. A run is one training (a world, an arena, a schedule,
-the budget's walks and steps) and the **parts** that evaluate it: a part is one
-evaluation condition (an arena, obstacles or a map, a planner, the time the arrays sit
-idle before it, walks of in-situ relearning before it). The runner makes one sweep task
-per (run x seed) (:mod:`cml_edge.scenarios.runner`); every part of a run evaluates a
-copy of that run's trained model, so a part never sees another part's reads or drift.
+A scenario is a list of **runs** in one world (:mod:`cml_edge.core.world`: the grid or
+the robot). A run is one training (``run``: the budget's walks and steps, on the grid an
+arena and a schedule) and the **parts** that evaluate it: a part is one evaluation
+condition (its problems: on the grid an arena, obstacles or a map, a planner; the time the
+arrays sit idle before it, walks of in-situ relearning before it). The runner makes one
+sweep task per (run x seed) (:mod:`cml_edge.scenarios.runner`); every part of a run
+evaluates a copy of that run's trained model, so a part never sees another part's reads
+or drift.
 
 Every scenario is seeded (model seeds 0..N-1, evaluation seed 123 for pairs, obstacles
 and robot goals) and runs on any device (``--backend``, ``--preset``, ``--set``).
@@ -16,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from cml_edge.core.world import WORLDS
 from cml_edge.errors import InputError
 from cml_edge.grid.maps import shipped_maps, shipped_path
 from cml_edge.grid.planning import MAX_STEPS
@@ -63,11 +66,16 @@ class Scenario:
     doc: str
     """Workload, what is measured, why it tells devices apart."""
     world: str
-    """``grid`` or ``robot``: which task function runs it."""
+    """The world its runs train and plan in (a key of :data:`~cml_edge.core.world.WORLDS`)."""
     kind: str
     """How its runs are made (a key of :data:`_RUNS`)."""
 
+    def __post_init__(self) -> None:
+        if self.world not in WORLDS:
+            raise ValueError(f"scenario {self.name!r}: unknown world {self.world!r}")
+
     def runs(self, budget: Budget) -> list[tuple[str, dict[str, Any]]]:
+        """(run id, ``{"run": training settings, "parts": [part, ...]}``) of each run."""
         return _RUNS[self.kind](budget)
 
 
@@ -83,7 +91,7 @@ def part(name: str, *, size: int | None = None, obstacles: int = 0, map: str | N
 
 def _grid(arena: int, b: Budget, parts: list[dict[str, Any]], schedule: str = "walk"
           ) -> dict[str, Any]:
-    return {"arena": arena, "walks": b.walks, "steps": b.steps, "schedule": schedule,
+    return {"run": {"arena": arena, "walks": b.walks, "steps": b.steps, "schedule": schedule},
             "parts": parts}
 
 
@@ -123,8 +131,9 @@ def _recovery(b: Budget) -> list[tuple[str, dict[str, Any]]]:
 
 
 def _robot(b: Budget) -> list[tuple[str, dict[str, Any]]]:
-    return [("robot", {"walks": b.walks, "steps": b.steps, "trials": b.trials,
-                       "eval_seed": EVAL_SEED})]
+    drive = {"name": "robot", "trials": b.trials, "eval_seed": EVAL_SEED, "age_s": 0.0,
+             "relearn_walks": 0}  # from the base pose to the evaluation seed's goals
+    return [("robot", {"run": {"walks": b.walks, "steps": b.steps}, "parts": [drive]})]
 
 
 _RUNS = {"paper": _paper, "in-situ": _in_situ, "retention": _retention, "clutter": _clutter,

@@ -6,8 +6,9 @@ scenario (:mod:`cml_edge.scenarios.registry`; task key ``RUN-sSEED``), runs them
 atomically to ``OUT/tasks/``, a rerun into the same ``out`` resumes) and pools each part
 over the seeds:
 
-- ``success_rate``, ``overhead_mean`` and the rest of
-  :func:`cml_edge.grid.metrics.summarize` over all seeds x trials (the robot:
+- ``success_rate``, ``overhead_mean`` and the rest of the world's summary over all
+  seeds x trials (:meth:`cml_edge.core.world.World.pool`: on the grid
+  :func:`cml_edge.grid.metrics.summarize`, on the robot
   :func:`cml_edge.robot.planning.summarize_robot`, ``overhead_mean`` its path ratio), and
   ``success_rate_seeds`` / ``overhead_mean_seeds``, the per-seed values' mean and spread;
 - ``weight_error``, ``decision_agreement``, ``read_snr``: seed means and spreads
@@ -35,27 +36,20 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
-
-import numpy as np
 
 from cml_edge import __version__
 from cml_edge.backends import backend_spec
 from cml_edge.core.cml import CML
 from cml_edge.core.fidelity import TWIN, pool_seeds, seed_stats
+from cml_edge.core.world import World, get_world
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
-from cml_edge.experiments.common import pool
 from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips, pool_chips
 from cml_edge.io.files import atomic_write_text
 from cml_edge.scenarios.registry import BUDGETS, get
+from cml_edge.scenarios.tasks import TASK_FN
 
-TASK_FNS = {"grid": "cml_edge.scenarios.tasks:grid_task",
-            "robot": "cml_edge.scenarios.tasks:robot_task"}
-GRID_KEYS = ("success_rate", "success_rate_connected", "overhead_mean", "overhead_median",
-             "overhead_geodesic_mean", "e_pos_mean", "e_pos_median", "connected_pairs",
-             "trials")
 PART_KEYS = ("size", "obstacles", "map", "scen", "planner", "max_steps", "eval_arena",
              "age_s", "relearn_walks")
 
@@ -72,30 +66,13 @@ def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
         raise InputError(f"seeds {seeds!r} is not an integer >= 1")
     backend_spec(backend)
     CML.create(backend=backend, **options)  # a bad option fails now, before any task
-    base = {"backend": backend, "backend_options": dict(options)}
+    base = {"world": scenario.world, "backend": backend, "backend_options": dict(options)}
     if idle_s:
         base["idle_s"] = float(idle_s)
     on = [("", {})] if chips is None else [(f"-c{c}", {"chip": int(c)}) for c in chips]
-    return [Task(f"{run}{tag}-s{seed}", TASK_FNS[scenario.world],
-                 {**base, **params, **chip, "seed": seed})
+    return [Task(f"{run}{tag}-s{seed}", TASK_FN, {**base, **params, **chip, "seed": seed})
             for tag, chip in on for run, params in scenario.runs(BUDGETS[budget])
             for seed in range(int(seeds))]
-
-
-def _pool_trials(world: str, records: list[dict[str, Any]]) -> dict[str, Any]:
-    if world == "grid":
-        pooled = pool(records)
-        return {k: pooled[k] for k in GRID_KEYS}
-    from cml_edge.robot.planning import summarize_robot
-
-    cat = {k: np.concatenate([np.asarray(r[k], float) for r in records])
-           for k in ("final", "length", "starts", "goals")}
-    res = SimpleNamespace(final=cat["final"], length=cat["length"],
-                          reached=np.concatenate([np.asarray(r["reached"], bool)
-                                                  for r in records]),
-                          steps=np.concatenate([np.asarray(r["steps"]) for r in records]))
-    summary = summarize_robot(res, cat["starts"], cat["goals"])
-    return {**summary, "overhead_mean": summary["path_ratio"]}
 
 
 def _spread(values: list[Any]) -> dict[str, Any]:
@@ -104,12 +81,12 @@ def _spread(values: list[Any]) -> dict[str, Any]:
     return seed_stats([v for v in values if v is not None])
 
 
-def pool_part(world: str, records: list[dict[str, Any]]) -> dict[str, Any]:
+def pool_part(world: World, records: list[dict[str, Any]]) -> dict[str, Any]:
     """One part over its seeds' records (module docstring)."""
     first = records[0]
     out: dict[str, Any] = {"part": first["name"],
                            **{k: first[k] for k in PART_KEYS if k in first},
-                           **_pool_trials(world, records),
+                           **world.pool(records),
                            "success_rate_seeds": _spread([r["success_rate"] for r in records]),
                            "overhead_mean_seeds": _spread([r["overhead_mean"]
                                                            for r in records]),
@@ -139,14 +116,14 @@ def chip_record(record: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def pool_part_chips(world: str, entries: list[tuple[int, dict[str, Any]]],
+def pool_part_chips(world: World, entries: list[tuple[int, dict[str, Any]]],
                     yield_target: float) -> dict[str, Any]:
     """``chips``, ``yield`` and ``yield_target`` of one part from its (chip, record)
     entries (module docstring)."""
     by_chip: dict[int, list[dict[str, Any]]] = {}
     for chip, record in entries:
         by_chip.setdefault(chip, []).append(record)
-    return pool_chips([{"chip": chip, "success_rate": _pool_trials(world, recs)["success_rate"],
+    return pool_chips([{"chip": chip, "success_rate": world.pool(recs)["success_rate"],
                         "per_seed": [chip_record(r) for r in recs]}
                        for chip, recs in by_chip.items()], yield_target)
 
@@ -167,6 +144,7 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     ``yield_target``. Returns the JSON-ready result (module docstring)."""
     options = dict(options or {})
     scenario = get(name)
+    world = get_world(scenario.world)
     chip_seeds = None
     if chips is not None:
         check_chips(chips, yield_target, first_chip)
@@ -184,15 +162,15 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
                                                       task.params.get("chip")))
     pooled = []
     for entries in parts.values():
-        row = pool_part(scenario.world, [rec for rec, _, _ in entries])
+        row = pool_part(world, [rec for rec, _, _ in entries])
         for entry, (_, seed, chip) in zip(row["per_seed"], entries):
             entry["seed"] = seed
             if chip is not None:
                 entry["chip"] = chip
         if chip_seeds is not None:
             row["seeds"] = int(seeds)
-            row.update(pool_part_chips(scenario.world, [(chip, rec) for rec, _, chip
-                                                        in entries], yield_target))
+            row.update(pool_part_chips(world, [(chip, rec) for rec, _, chip in entries],
+                                       yield_target))
         pooled.append(row)
     b = BUDGETS[budget]
     result: dict[str, Any] = {

@@ -1,6 +1,7 @@
 """The device against its float64 twin: weight error, decision agreement, read SNR."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from cml_edge.core.fidelity import read_snr, seed_stats, weight_error
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     Evaluation,
+    Protocol,
     Training,
     run_fidelity,
     run_protocol,
@@ -76,10 +78,10 @@ def test_read_snr_falls_as_read_noise_grows_and_leaves_the_device_untouched():
 
 
 def test_metrics_add_keys_and_change_no_number():
-    kw = dict(seeds=range(2), trials=10, arena_size=10, train_config=CONFIG,
-              preset="pcm-symmetric")
-    plain = run_protocol("crossbar", fidelity=False, **kw)
-    full = run_protocol("crossbar", **kw)
+    protocol = Protocol("crossbar", range(2), 10, 10, train=CONFIG,
+                        backend_options={"preset": "pcm-symmetric"})
+    plain = run_protocol(replace(protocol, fidelity=False))
+    full = run_protocol(protocol)
     for key, value in plain.items():
         if key == "per_seed":
             for a, b in zip(value, full["per_seed"]):

@@ -5,7 +5,8 @@ import json
 import pytest
 
 from cml_edge.engine.sweep import Task, load_done, run_sweep, task_path
-from cml_edge.experiments.common import TASK_FN, eval_spec, make_tasks, pool
+from cml_edge.experiments.common import TASK_FN, eval_spec, make_tasks
+from cml_edge.grid.evaluation import pool_records
 
 TINY = {"arena": 10, "walks": 3, "steps": 60,
         "evals": [eval_spec("e", trials=6, max_steps=30),
@@ -76,7 +77,7 @@ def test_dask_gives_the_same_numbers(reference_results, tmp_path):
 def test_pooled_metrics_are_over_all_trials(reference_results):
     results, _ = reference_results
     recs = [r["evals"][0] for k, r in results.items() if k.startswith("tiny-")]
-    pooled = pool(recs)
+    pooled = pool_records(recs)
     assert pooled["trials"] == 18
     assert pooled["success_rate"] == pytest.approx(sum(r["success_rate"] for r in recs) / 3)
 

@@ -14,7 +14,7 @@ from cml_edge.grid.chips import (
     pool_chips,
     run_chips,
 )
-from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.evaluation import Protocol, run_protocol
 from cml_edge.grid.training import TrainConfig
 
 SMALL = {"backend": "crossbar", "seeds": [0], "trials": 8, "arena_size": 10, "obstacles": 0,
@@ -35,19 +35,21 @@ def test_same_chip_seed_same_result_and_chips_differ():
 
 
 def test_a_chip_of_the_model_seed_is_the_single_chip_run():
-    single = run_protocol("crossbar", [0], 8, 10, train_config=TrainConfig(3, 60),
-                          eval_seed=5, max_steps=30, epoch=3, preset="pcm")
+    single = run_protocol(Protocol("crossbar", [0], 8, 10, train=TrainConfig(3, 60),
+                                   eval_seed=5, max_steps=30, epoch=3,
+                                   backend_options={"preset": "pcm"}))
     chip = chip_task(0, SMALL)
     assert chip["per_seed"] == single["per_seed"]
 
 
 def test_pool_and_in_process_agree(tmp_path):
-    pooled = run_chips(3, SMALL, 0.5, first=2, out=tmp_path / "pool", workers=2)
-    local = run_chips(3, SMALL, 0.5, first=2, out=tmp_path / "local", workers=1)
+    protocol = Protocol.from_dict(SMALL)
+    pooled = run_chips(3, protocol, 0.5, first=2, out=tmp_path / "pool", workers=2)
+    local = run_chips(3, protocol, 0.5, first=2, out=tmp_path / "local", workers=1)
     assert pooled["chips"] == local["chips"] and pooled["yield"] == local["yield"]
     assert pooled["chips"]["chip_seeds"] == [2, 3, 4]
     assert len(list((tmp_path / "pool" / "tasks").glob("chip-*.json"))) == 3
-    again = run_chips(3, SMALL, 0.5, first=2, out=tmp_path / "pool", workers=1)  # resumes
+    again = run_chips(3, protocol, 0.5, first=2, out=tmp_path / "pool", workers=1)  # resumes
     assert again["chips"] == pooled["chips"]
 
 

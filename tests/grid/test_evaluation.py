@@ -1,11 +1,14 @@
 """The one train-and-evaluate driver and the one default-compute-path rule."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.evaluation import (
     Evaluation,
+    Protocol,
     Training,
     default_path,
     run_protocol,
@@ -64,23 +67,16 @@ def _plan(cml, arena, pairs, **kw):
 
 
 def test_run_protocol_names_its_compute_path():
-    result = run_protocol("float", [0], 5, 10, train_config=TrainConfig(2, 40))
+    protocol = Protocol("float", [0], 5, 10, train=TrainConfig(2, 40))
+    result = run_protocol(protocol)
     assert result["compute_path"] == result["path"] == "direct" and result["counters"]
-    result = run_protocol("float", [0], 5, 10, train_config=TrainConfig(2, 40),
-                          path="factored")
+    result = run_protocol(replace(protocol, path="factored"))
     assert result["compute_path"] == result["path"] == "factored"
-
-
-def test_run_protocol_needs_a_seed():
-    from cml_edge.errors import InputError
-
-    with pytest.raises(InputError, match="no seeds"):
-        run_protocol("float", [], 5, 10)
 
 
 def test_run_protocol_reports_progress_during_training_and_evaluation():
     calls = []
-    run_protocol("float", [0, 1], 5, 10, train_config=TrainConfig(25, 40), epoch=10,
+    run_protocol(Protocol("float", [0, 1], 5, 10, train=TrainConfig(25, 40), epoch=10),
                  progress=lambda done, total: calls.append((done, total)))
     # per seed: three training epochs (10, 20, 25 walks), then the evaluation
     assert calls == [(n, 8) for n in range(9)]

@@ -22,7 +22,7 @@ from cml_edge.backends.fields import parse_setting
 from cml_edge.cli import main
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import run_protocol
+from cml_edge.grid.evaluation import Protocol, run_protocol
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import plan
 from cml_edge.grid.training import TrainConfig, train
@@ -333,9 +333,9 @@ def test_same_seed_same_run_other_seed_other_devices():
 
 def test_ideal_trains_to_the_float_metrics():
     kw = dict(seeds=range(2), trials=40, arena_size=12,
-              train_config=TrainConfig(walks=12, steps=300), path="reference", epoch=6)
-    ref = run_protocol("float", **kw)
-    ideal = run_protocol("crossbar", preset="ideal", **kw)
+              train=TrainConfig(walks=12, steps=300), path="reference", epoch=6)
+    ref = run_protocol(Protocol("float", **kw))
+    ideal = run_protocol(Protocol("crossbar", backend_options={"preset": "ideal"}, **kw))
     for k in ("success_rate", "e_pos_mean", "overhead_mean"):
         assert ideal[k] == pytest.approx(ref[k], abs=1e-9)
     # the fidelity metrics agree to rounding: weight error ~1e-15, not 0

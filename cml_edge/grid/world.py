@@ -1,0 +1,94 @@
+"""The grid as a world of the scenarios (:class:`cml_edge.core.world.World`).
+
+A run (``run``: ``arena``, ``walks``, ``steps``, ``schedule``) trains on the empty arena
+of side ``arena`` with random exploration (:func:`cml_edge.grid.evaluation.train_seed`);
+the float64 twin is :func:`cml_edge.grid.fidelity.float_twin`. A part is an evaluation
+condition (:func:`cml_edge.grid.evaluation.eval_setting`: an arena, obstacles or a map,
+pairs from the evaluation seed, a planner, a step budget); its record is the part's
+settings, :func:`cml_edge.grid.metrics.summarize` (Eqs. 8, 9), the per-trial finals and
+steps with the pairs, and :func:`cml_edge.grid.fidelity.seed_fidelity`. In-situ
+relearning continues the seed's walks with every update applied at its step
+(:data:`RELEARN_SCHEDULE`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, NamedTuple
+
+from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.world import PATH, Trained
+from cml_edge.grid.arena import GridArena
+from cml_edge.grid.evaluation import Evaluation, Training, eval_setting, pool_records, train_seed
+from cml_edge.grid.fidelity import float_twin, seed_fidelity
+from cml_edge.grid.metrics import summarize
+from cml_edge.grid.planning import PlanResult
+from cml_edge.grid.training import TrainConfig, train
+
+RELEARN_SCHEDULE = "step"
+"""In-situ relearning applies every update on the device at the step it is computed."""
+POOLED_KEYS = ("success_rate", "success_rate_connected", "overhead_mean", "overhead_median",
+               "overhead_geodesic_mean", "e_pos_mean", "e_pos_median", "connected_pairs",
+               "trials")
+"""The keys of :func:`~cml_edge.grid.metrics.summarize` a part pools over seeds."""
+
+
+class GridPlan(NamedTuple):
+    """What :meth:`GridWorld.plan` planned: the evaluation and its result."""
+
+    evaluation: Evaluation
+    result: PlanResult
+
+
+def _training(run: Mapping[str, Any]) -> tuple[GridArena, TrainConfig, CMLConfig]:
+    """The empty training arena, the training config and the CML config of ``run``."""
+    return (GridArena.empty(run["arena"]),
+            TrainConfig(run["walks"], run["steps"], "random", run["schedule"]),
+            CMLConfig.for_arena(run["arena"]))
+
+
+class GridWorld:
+    """The grid world (module docstring)."""
+
+    name = "grid"
+
+    def train(self, seed: int, run: Mapping[str, Any], backend: str,
+              backend_options: Mapping[str, Any], chip: int | None) -> Trained:
+        arena, config, cml_config = _training(run)
+        done = train_seed(seed, Training(arena, config, cml_config, backend,
+                                         backend_options, PATH, chip=chip))
+        return Trained(done.cml, done.train_error)
+
+    def twin(self, seed: int, run: Mapping[str, Any]) -> CML:
+        return float_twin(seed, *_training(run))
+
+    def relearn(self, cml: CML, twin: CML, seed: int, run: Mapping[str, Any], walks: int,
+                done: int) -> None:
+        arena, _, cml_config = _training(run)
+        more = TrainConfig(walks, run["steps"], "random", RELEARN_SCHEDULE)
+        first = run["walks"] + done
+        train(cml, arena, more, seed, path=PATH, epoch=walks, first_walk=first)
+        float_twin(seed, arena, more, cml_config, first_walk=first, twin=twin)
+
+    def plan(self, cml: CML, part: Mapping[str, Any], run: Mapping[str, Any]) -> GridPlan:
+        evaluation = Evaluation(*eval_setting(part, run["arena"]), part["planner"])
+        return GridPlan(evaluation, evaluation.plan(cml, PATH))
+
+    def summarise(self, seed: int, cml: CML, twin: CML, part: Mapping[str, Any],
+                  planned: GridPlan) -> dict[str, Any]:
+        ev, res = planned
+        pairs = ev.pairs
+        return {**part, "max_steps": ev.max_steps, "eval_arena": ev.arena.size,
+                **summarize(res.final, res.steps, pairs),
+                "final": res.final.tolist(), "steps": res.steps.tolist(),
+                "starts": pairs.starts.tolist(), "goals": pairs.goals.tolist(),
+                "chebyshev": pairs.chebyshev.tolist(), "geodesic": pairs.geodesic.tolist(),
+                **seed_fidelity(seed, cml, twin, ev.arena, pairs.goals, res, ev.planner,
+                                ev.max_steps)}
+
+    def pool(self, records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+        pooled = pool_records(records)
+        return {k: pooled[k] for k in POOLED_KEYS}
+
+
+GRID = GridWorld()
