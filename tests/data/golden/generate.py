@@ -11,7 +11,10 @@ Run from that release's checkout, with its own ``cml_edge`` on ``sys.path``:
 :class:`cml_edge.grid.evaluation.Protocol` (``protocol``) and what the old
 ``run_protocol`` returned for them (``result``, without ``wall_time_s``), so that the
 test can check that ``run_protocol(Protocol.from_dict(protocol))`` returns the same JSON,
-key for key and value for value. ``scenarios.json``: ``run_scenario`` of a grid scenario
+key for key and value for value. One rule changed since: a read SNR whose reads equal the
+twin's to float64 rounding is null (:data:`cml_edge.core.fidelity.READ_ROUNDING`), so the
+float64 cases' ``read_snr`` of W_k and W_v were rewritten as null; every other value is
+what the old code wrote. ``scenarios.json``: ``run_scenario`` of a grid scenario
 and the robot's on the tiny budget (without ``wall_time_s``; the DQN results file's path
 relative to the checkout).
 """
