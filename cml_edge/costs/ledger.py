@@ -4,7 +4,8 @@ Nothing here is typed in by hand. Counts come from the model's shapes (parameter
 paper's FLOP formulas of section 2.4.3), from the counters an emulated array kept while
 it trained and planned (MACs, bytes, cells changed, pulses), and from the DQN's
 layer sizes and training settings. Energy is counted operation by operation, and each
-per-operation constant carries its source (../shared/reference/crossbar.md). An
+per-operation constant carries its public source (Horowitz, ISSCC 2014; Le Gallo et al.,
+Nature Electronics 2023; NeuroSim V3: :data:`COSTS`). An
 operation with no sourced constant is reported as not costed, never guessed.
 
 Two schedules of the CML's per-walk training are ledgered:
@@ -126,9 +127,6 @@ def energy_pj(tech: str, counters: dict[str, int]) -> tuple[float | None, list[s
 
 
 # the CML ---------------------------------------------------------------------------
-N_FACTORED_ACCUMULATORS = "n_a*n_i + n_i*n_a + n_a + n_i*n_i + n_a*n_i"
-
-
 def factored_accumulators(cml: CML) -> int:
     """A, B, n, C, D of the factored form: 60 numbers for the paper's sizes."""
     c = cml.config

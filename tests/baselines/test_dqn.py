@@ -226,21 +226,6 @@ def test_cml_on_same_pairs(sb3):
     assert direct["curve_planned_with"] == "factored"
 
 
-def test_results_table_needs_no_extra():
-    from cml_edge.baselines import markdown_table, results_table
-
-    metrics = {"success_rate": 0.5, "e_pos_mean": 1.0, "e_pos_median": 0.5,
-               "overhead_mean": None, "overhead_median": 1.0}
-    cml = {"seeds": 2, "trials": 200, "walks": 100, "steps_per_walk": 900, **metrics}
-    ev = {"config": "tailored", "goal_conditioned": False, "seeds": 2, "trials": 100,
-          "train_steps": 200000, **metrics, "cml": {"factored": cml}}
-    rows = results_table({"evaluations": {"a": ev, "b": {**ev, "config": "simplified"}}})
-    assert [r["method"] for r in rows] == ["DQN tailored", "CML (random walks, float64)",
-                                          "DQN simplified"]
-    assert rows[0]["trials"] == 200 and rows[1]["train_steps"] == 90000
-    assert markdown_table(rows).count("\n") == 4 and "n/a" in markdown_table(rows)
-
-
 def _add_keys(path, name):
     for i in range(15):
         with updating_results(path) as data:
