@@ -42,6 +42,7 @@ def test_paper_counts():
     assert mlp_inference_flops(GOAL_CONDITIONED_LAYERS) == 9728
 
 
+@pytest.mark.slow
 def test_core_and_cli_never_import_the_extra():
     code = ("import sys, cml_edge, cml_edge.cli, cml_edge.baselines, cml_edge.baselines.dqn; "
             f"print([m for m in {HEAVY!r} if m in sys.modules])")
@@ -117,6 +118,7 @@ def sb3():
     return dqn_sb3
 
 
+@pytest.mark.slow
 def test_the_torch_side_does_not_import_the_driver(sb3):
     code = ("import sys, cml_edge.baselines.dqn_sb3; "
             "print('cml_edge.baselines.dqn' in sys.modules)")
@@ -173,6 +175,7 @@ def test_batched_rollout_matches_env_steps(sb3):
             assert list(info["position"]) == final[i].tolist() and n == steps[i]
 
 
+@pytest.mark.slow
 def test_train_resume_evaluate(sb3, tmp_path):
     results = tmp_path / "hw" / "dqn_results.json"
     models = tmp_path / "models"

@@ -364,6 +364,7 @@ def test_same_seed_same_run_other_seed_other_devices():
     assert not np.array_equal(a.to_float(), d.to_float())
 
 
+@pytest.mark.slow
 def test_ideal_trains_to_the_float_metrics():
     kw = dict(seeds=range(2), trials=40, arena_size=12,
               train_config=TrainConfig(walks=12, steps=300), path="reference", epoch=6)
