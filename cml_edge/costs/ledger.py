@@ -4,8 +4,9 @@ Nothing here is typed in by hand. Counts come from the model's shapes (parameter
 paper's FLOP formulas of section 2.4.3), from the counters an emulated array kept while
 it trained and planned (MACs, bytes, cells changed, pulses), and from the DQN's
 layer sizes and training settings. Energy is counted operation by operation, and each
-per-operation constant carries its source (../shared/reference/crossbar.md). Which
-constants apply to which counters of a device is its cost model, declared in its folder
+per-operation constant carries its public source (Horowitz, ISSCC 2014; Le Gallo et al.,
+Nature Electronics 2023; NeuroSim V3: :data:`COSTS`). Which constants apply to which
+counters of a device is its cost model, declared in its folder
 (:class:`~cml_edge.backends.device.CostModel`). An operation with no sourced constant is
 reported as not costed, never guessed.
 
@@ -101,9 +102,6 @@ def counted_macs(model: CostModel, counters: dict[str, int]) -> int:
 
 
 # the CML ---------------------------------------------------------------------------
-N_FACTORED_ACCUMULATORS = "n_a*n_i + n_i*n_a + n_a + n_i*n_i + n_a*n_i"
-
-
 def factored_accumulators(cml: CML) -> int:
     """A, B, n, C, D of the factored form: 60 numbers for the paper's sizes."""
     c = cml.config

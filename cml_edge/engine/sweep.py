@@ -6,7 +6,7 @@ called with, so a task is cheap to ship to another process or machine and runs t
 same there. :func:`run_sweep`:
 
 - writes each task's result to ``OUT/tasks/KEY.json`` atomically as soon as it
-  finishes (:func:`cml_edge.core.model_file.atomic_write_text`), so an interrupted sweep
+  finishes (:func:`cml_edge.io.files.atomic_write_text`), so an interrupted sweep
   loses only the tasks that were running;
 - skips every task whose result file is already there (a rerun resumes);
 - runs the rest in-process (``workers=1``), in a local process pool (``workers`` > 1,

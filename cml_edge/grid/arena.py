@@ -19,7 +19,6 @@ from cml_edge.errors import InputError
 MOVES = np.array(
     [[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]], dtype=np.int64
 )
-MOVE_NAMES = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")
 N_ACTIONS = 8
 
 

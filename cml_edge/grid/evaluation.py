@@ -232,13 +232,6 @@ def run_fidelity(run: SeedRun, training: Training, evaluations: Sequence[Evaluat
             for ev, res in zip(evaluations, run.results)]
 
 
-def evaluate_model(cml: CML, arena: GridArena, pairs: Pairs, path: str = "direct",
-                   max_steps: int = MAX_STEPS, planner: str = "paper") -> dict[str, Any]:
-    """Plan every pair and summarise (Eqs. 8, 9)."""
-    res = Evaluation(arena, pairs, max_steps, planner).plan(cml, path)
-    return summarize(res.final, res.steps, pairs)
-
-
 def pool_pairs(pairs: Pairs, times: int) -> Pairs:
     """``pairs`` repeated ``times`` times (pooling the trials of several models)."""
     return Pairs(*(np.concatenate([a] * times) for a in

@@ -130,7 +130,7 @@ def choose_action(explore, masks, visited, n_visited, x, y, t_expl, key, step, n
     """The exploration move at global training step ``step`` (both strategies).
 
     ``masks`` is the arena's per-cell bitmask of available moves
-    (:func:`cml_edge.arena.move_masks`); -1 when no move is available.
+    (:func:`cml_edge.grid.arena.move_masks`); -1 when no move is available.
     """
     moves = masks[x, y]
     if moves == 0:

@@ -27,7 +27,7 @@ from cml_edge.core.step import FactoredScorer, prepare, scores, wta
 from cml_edge.protocol import STREAM_FIDELITY
 from cml_edge.robot.observation import XY, RobotCMLSettings, observe, observe_goal
 from cml_edge.robot.planning import RobotPlanResult
-from cml_edge.robot.sim import N_ROBOT_ACTIONS, RobotSim, sim_available
+from cml_edge.robot.sim import N_ROBOT_ACTIONS, KinematicSim, RobotSim, sim_available
 from cml_edge.robot.training import RobotTrainConfig, train_robot
 
 
@@ -88,9 +88,11 @@ def robot_seed_fidelity(seed: int, cml: CML, twin: CML, sim: RobotSim,
     """One robot model's weight error, decision agreement and read SNR (and the counts)."""
     goals = np.ascontiguousarray(goals, dtype=np.float64)
     agree = np.zeros(len(goals), np.int64)
-    robot_replay_loop(FactoredScorer.of(twin), sim.plugin, settings.frame(),
-                      twin.config.utility == "normalized", goals, result.poses, result.actions,
-                      np.ascontiguousarray(result.steps, dtype=np.int64), agree)
+    # a Python simulator (MuJoCo) runs the loop's plain-Python body (cml_edge.jit.routing)
+    loop = robot_replay_loop if isinstance(sim, KinematicSim) else robot_replay_loop.py_func
+    loop(FactoredScorer.of(twin), sim.plugin, settings.frame(),
+         twin.config.utility == "normalized", goals, result.poses, result.actions,
+         np.ascontiguousarray(result.steps, dtype=np.int64), agree)
     total, same = int(result.steps.sum()), int(agree.sum())
     return {"weight_error": weight_error(cml, twin),
             "decision_agreement": same / total if total else None,

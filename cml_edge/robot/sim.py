@@ -22,10 +22,9 @@ simulators sit behind one interface (:class:`RobotSim`):
 Choices the paper leaves open, made here (all are fields of :class:`RobotConfig`):
 
 - Geometry. Wheel radius 0.031 m and axle length 0.271756 m (wheels at +-0.135878 m),
-  the numbers of Webots' Create model (as read by public Webots wrappers of it; the
-  project's reference notes give ~0.031 m and ~0.26 m). Webots caps the Create's wheels
-  at 16 rad/s, so omega_max = 5 pi = 15.7 rad/s is within its range. Body radius
-  0.17 m (the Create is ~0.34 m across).
+  the numbers of Webots' Create model (as read by public Webots wrappers of it). Webots
+  caps the Create's wheels at 16 rad/s, so omega_max = 5 pi = 15.7 rad/s is within its
+  range. Body radius 0.17 m (the Create is ~0.34 m across).
 - Step length. 32 ms, the Webots default ``basicTimeStep``; an action lasts
   64 x 32 ms = 2.048 s, so action 2 (both wheels at 0.5 omega_max) drives
   0.031 x 7.854 x 2.048 = 0.499 m, one "cell" of the grid and twice the goal radius.
@@ -60,8 +59,6 @@ N_ROBOT_ACTIONS = 8
 WHEEL_FRACTIONS = np.array(
     [[0.5, 0.75], [0.5, 0.5], [0.75, 0.5], [0.2, 0.9], [0.9, 0.2], [-0.75, -0.5],
      [-0.5, -0.5], [-0.5, -0.75]], dtype=np.float64)
-ACTION_NAMES = ("forward-left", "forward", "forward-right", "sharp-left", "sharp-right",
-                "back-right", "back", "back-left")
 SIMS = ("kinematic", "mujoco")
 
 
@@ -444,8 +441,6 @@ class MujocoSim(_ArcMask):
         self.wheels = c.wheel_speeds()
         self._work = np.zeros(3)
         self.pose = np.zeros(3)
-        self._qadr_l = self.model.jnt_qposadr[self.model.joint("left").id]
-        self._qadr_r = self.model.jnt_qposadr[self.model.joint("right").id]
 
     def reset(self, pose) -> None:
         pose = _check_pose(pose, self.config)
@@ -498,8 +493,9 @@ def _mujoco_reset(sim: MujocoSim, start: np.ndarray, pose: np.ndarray) -> None:
 
 
 def _mujoco_available(sim: MujocoSim, pose: np.ndarray, mask: np.ndarray) -> int:
-    mask[:] = sim.available()
-    return int(mask.sum())
+    c = sim.config  # at ``pose``, not the robot's: the fidelity replay asks at recorded poses
+    return int(available_actions(pose, sim.twists, c.dt, c.steps_per_action, c.lo, c.hi, mask,
+                                 sim._work, NO_PATH))
 
 
 def _mujoco_step(sim: MujocoSim, pose: np.ndarray, a: int, new: np.ndarray,

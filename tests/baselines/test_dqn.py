@@ -42,6 +42,7 @@ def test_paper_counts():
     assert mlp_inference_flops(GOAL_CONDITIONED_LAYERS) == 9728
 
 
+@pytest.mark.slow
 def test_core_and_cli_never_import_the_extra():
     code = ("import sys, cml_edge, cml_edge.cli, cml_edge.baselines, cml_edge.baselines.dqn; "
             f"print([m for m in {HEAVY!r} if m in sys.modules])")
@@ -117,6 +118,7 @@ def sb3():
     return dqn_sb3
 
 
+@pytest.mark.slow
 def test_the_torch_side_does_not_import_the_driver(sb3):
     code = ("import sys, cml_edge.baselines.dqn_sb3; "
             "print('cml_edge.baselines.dqn' in sys.modules)")
@@ -173,6 +175,7 @@ def test_batched_rollout_matches_env_steps(sb3):
             assert list(info["position"]) == final[i].tolist() and n == steps[i]
 
 
+@pytest.mark.slow
 def test_train_resume_evaluate(sb3, tmp_path):
     results = tmp_path / "hw" / "dqn_results.json"
     models = tmp_path / "models"
@@ -224,21 +227,6 @@ def test_cml_on_same_pairs(sb3):
     assert direct["curve_e_pos_mean"] == out["curve_e_pos_mean"]
     assert direct["e_pos_mean"] == pytest.approx(out["e_pos_mean"])
     assert direct["curve_planned_with"] == "factored"
-
-
-def test_results_table_needs_no_extra():
-    from cml_edge.baselines import markdown_table, results_table
-
-    metrics = {"success_rate": 0.5, "e_pos_mean": 1.0, "e_pos_median": 0.5,
-               "overhead_mean": None, "overhead_median": 1.0}
-    cml = {"seeds": 2, "trials": 200, "walks": 100, "steps_per_walk": 900, **metrics}
-    ev = {"config": "tailored", "goal_conditioned": False, "seeds": 2, "trials": 100,
-          "train_steps": 200000, **metrics, "cml": {"factored": cml}}
-    rows = results_table({"evaluations": {"a": ev, "b": {**ev, "config": "simplified"}}})
-    assert [r["method"] for r in rows] == ["DQN tailored", "CML (random walks, float64)",
-                                          "DQN simplified"]
-    assert rows[0]["trials"] == 200 and rows[1]["train_steps"] == 90000
-    assert markdown_table(rows).count("\n") == 4 and "n/a" in markdown_table(rows)
 
 
 def _add_keys(path, name):

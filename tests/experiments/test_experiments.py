@@ -37,6 +37,7 @@ def test_unknown_experiment_and_rejected_options():
 
 
 
+@pytest.mark.slow
 def test_sweep_command_writes_results_and_resumes(tmp_path, cli):
     out = tmp_path / "obst"
     code, stdout, err = cli("sweep", "maps", "--seeds", 1, "--workers", 1,
@@ -73,6 +74,7 @@ def model(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_evaluate_and_navigate_on_a_map(model, cli):
     scen = shipped_path("rooms", ".map.scen")
     res = {}

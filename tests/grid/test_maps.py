@@ -113,6 +113,7 @@ def test_step_budget():
     assert [step_budget(n) for n in (10, 30, 32, 60, 120)] == [100, 100, 107, 200, 400]
 
 
+@pytest.mark.slow
 def test_shipped_maps_and_scenarios_are_valid_and_connected():
     assert {"rooms", "utrap", "maze"} <= set(shipped_maps())
     for name in shipped_maps():
@@ -126,6 +127,7 @@ def test_shipped_maps_and_scenarios_are_valid_and_connected():
         shipped_path("nowhere")
 
 
+@pytest.mark.slow
 def test_make_maps_regenerates_the_shipped_files(tmp_path, capsys):
     from cml_edge.data.make_maps import main
 

@@ -71,6 +71,7 @@ def test_escape_solves_a_u_trap_the_paper_planner_fails(cml30):
         assert (np.abs(np.diff(cells, axis=0)).max(1) == 1).all()  # king moves only
 
 
+@pytest.mark.slow
 def test_shipped_utrap_and_rooms(cml30):
     cml = CML.create(CMLConfig.for_arena(32), seed=1)
     train(cml, GridArena.empty(32), TrainConfig(), seed=1, path="factored")

@@ -122,6 +122,7 @@ def report(tmp_path_factory):
     return rep, out
 
 
+@pytest.mark.slow
 def test_schema(report):
     rep, out = report
     data = json.loads((out / "report.json").read_text())
@@ -152,6 +153,7 @@ def _numbers(obj):
         yield fmt(obj)
 
 
+@pytest.mark.slow
 def test_every_number_in_the_markdown_tables_is_in_the_json(report):
     _, out = report
     known = set(_numbers(json.loads((out / "report.json").read_text())))
@@ -162,6 +164,7 @@ def test_every_number_in_the_markdown_tables_is_in_the_json(report):
     assert numbers and all(n in known for n in numbers), [n for n in numbers if n not in known]
 
 
+@pytest.mark.slow
 def test_interrupted_report_leaves_nothing(tmp_path, monkeypatch, report):
     rep, _ = report
     import cml_edge.report.render as render
@@ -183,6 +186,7 @@ def test_report_refuses_a_missing_dqn_results_file(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err and not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow
 def test_scorecard_sections(report):
     rep, _ = report
     card = rep["scorecard"]
@@ -208,6 +212,7 @@ def test_scorecard_sections(report):
     assert bp["value"] is None and "does not bracket" in bp["note"]
 
 
+@pytest.mark.slow
 def test_breakpoint_row_bracketed():
     row = breakpoint_row(Breakpoint("fixed", "fixed", {}, "bits", value_range=(2, 16)),
                          ScorecardPlan(2, "quick", 2, workers=1))

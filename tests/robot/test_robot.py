@@ -27,6 +27,7 @@ from cml_edge.robot.sim import (
     RobotConfig,
     action_geometry,
     make_sim,
+    sim_available,
     wrap_angle,
 )
 from cml_edge.robot.training import RobotTrainConfig, train_robot
@@ -129,6 +130,28 @@ def test_mujoco_sim_stays_in_the_arena_and_reports_its_pose():
     sim.reset([0.5, 0.5, 3.5])
     poses = _random_actions(sim, 15, np.random.default_rng(1))
     assert poses[:, :2].min() >= RC.lo - 0.02 and poses[:, :2].max() <= RC.hi + 0.02
+
+
+@pytest.mark.parametrize("name", ["kinematic", "mujoco"])
+def test_plugins_mask_the_actions_at_the_pose_asked_about(name):
+    """``sim_available(plugin, pose, mask)`` answers for ``pose``, wherever the robot is
+    (the fidelity replay asks at the poses a run recorded)."""
+    if name == "mujoco":
+        pytest.importorskip("mujoco")
+    sim = make_sim(name, RC)
+    sim.reset([15.0, 15.0, 0.0])  # all actions available here
+    rng = np.random.default_rng(4)
+    corners = np.column_stack([rng.uniform(RC.lo, RC.lo + 0.6, (12, 2)),
+                               rng.uniform(-np.pi, np.pi, 12)])
+    mask = np.zeros(8, np.uint8)
+    masked = 0
+    for pose in corners:
+        count = sim_available(sim.plugin, pose, mask)
+        sim.reset(pose)
+        assert np.array_equal(mask, sim.available()) and count == mask.sum()
+        masked += count < 8
+        sim.reset([15.0, 15.0, 0.0])
+    assert masked >= 6
 
 
 # the CML on the robot ------------------------------------------------------------------------

@@ -38,7 +38,8 @@ def test_the_eight_scenarios_are_registered():
         assert len(s.doc) > 100
 
 
-@pytest.mark.parametrize("name", list(PARTS))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "maps" else n
+                                  for n in PARTS])
 def test_each_scenario_runs_on_a_tiny_budget(name):
     r = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
     assert [p["part"] for p in r["parts"]] == PARTS[name]
@@ -75,6 +76,7 @@ def test_drift_moves_the_pcm_weights_with_age():
     assert errors[-1] > errors[0]
 
 
+@pytest.mark.slow
 def test_same_seeds_same_numbers_in_process_pool_and_resumed(tmp_path):
     kw = dict(seeds=2, budget="tiny")
     one = run_scenario("clutter", "crossbar", {"preset": "reram"}, workers=1, **kw)
@@ -163,6 +165,7 @@ def test_knobs_are_read_from_the_devices_and_set_their_fields():
         get_knob("levels", "fixed")
 
 
+@pytest.mark.slow
 def test_a_real_break_point_and_a_range_that_does_not_bracket():
     kw = dict(options={"preset": "ideal"}, target=0.9, seeds=2, budget="quick", workers=1)
     r = find_breakpoint("paper", "crossbar", "read_noise", **kw)

@@ -7,8 +7,8 @@ can be overridden (``--set field=value`` on the command line, ``--levels N``,
 :class:`CrossbarParams`, the record derived from the config's numeric fields plus the
 array's derived quantities (:func:`crossbar_params`; :mod:`cml_edge.backends.params`).
 
-Presets and where their numbers come from (the figures are collected in
-``shared/reference/crossbar.md``):
+Presets and where their numbers come from (each figure with its public source: IBM
+aihwkit, Sandia CrossSim and the papers they implement):
 
 ``ideal``
     no non-idealities: continuous conductance (``levels = 0``), exact analog updates
@@ -78,7 +78,6 @@ from typing import Any
 from cml_edge.backends.device import CostModel, Knob
 from cml_edge.backends.fields import (
     check_types,
-    field_names,
     matrix_value,
     option,
     resolve,
@@ -379,7 +378,6 @@ def _step(bound: float, bits: int) -> float:
     return bound / (2.0 ** (bits - 1) - 1.0) if bits > 0 else 0.0
 
 
-FIELD_NAMES = field_names(DeviceConfig)
 _NONNEG = ("dw_min_dtod", "dw_min_std", "up_down_dtod", "prog_noise", "read_noise",
            "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v",
            "c2c_add", "c2c_slope", "write_noise", "bound_dtod_up", "bound_dtod_down",

@@ -24,7 +24,6 @@ from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.fields import matrix_value
 from cml_edge.backends.fixed import kernels as kern
 from cml_edge.backends.fixed.config import (
-    PRESETS,
     FixedConfig,
     FixedParams,
     fixed_params,
@@ -58,7 +57,6 @@ class FixedState(NamedTuple):
 
 
 MATRIX_NAMES = ("W_q", "W_k", "W_v")
-FIXED_BITS_BACKENDS = {name: p["bits"] for name, p in PRESETS.items()}  # width in the name
 
 
 class FixedArray(SynapticArray):
@@ -218,5 +216,4 @@ LEGACY_PARAMS = ("exp", "bits", "qmax", "rounding", "act_qmax", "frac", "acc_max
 ``P_*`` indices 0..13, in order)."""
 
 
-__all__ = ["FIXED_BITS_BACKENDS", "LEGACY_PARAMS", "FixedArray", "FixedState",
-           "SaturationError"]
+__all__ = ["LEGACY_PARAMS", "FixedArray", "FixedState", "SaturationError"]

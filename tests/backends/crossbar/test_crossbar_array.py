@@ -151,6 +151,40 @@ def test_converters_quantise_inputs_and_outputs():
     assert big.counters["adc_saturations"] == 2 and big.counters["adc_conversions"] == 2
 
 
+
+@pytest.mark.parametrize("read", ["matvec", "rmatvec"])
+def test_adc_clips_both_signs_at_its_bound(read):
+    """Outputs of +-20 (normalised) on an ADC of bound 12: both clip, both are counted."""
+    W = np.vstack([np.full(40, 0.5), np.full(40, -0.5)])  # rows: +20 and -20 at x = 1
+    arr = xbar(W if read == "matvec" else W.T, adc_bits=9, adc_bound=12.0, w_max_q=1.0)
+    out = getattr(arr, read)(np.ones(40))
+    assert out == pytest.approx([12.0, -12.0])
+    assert arr.counters["adc_saturations"] == 2
+    inside = xbar(W / 4 if read == "matvec" else W.T / 4, adc_bits=9, adc_bound=12.0,
+                  w_max_q=1.0)
+    assert getattr(inside, read)(np.ones(40)) == pytest.approx([5.0, -5.0], abs=12 / 255)
+    assert inside.counters["adc_saturations"] == 0
+
+
+@pytest.mark.parametrize("read", ["matvec", "rmatvec"])
+def test_read_noise_of_an_output_does_not_depend_on_the_read_length(read):
+    """Output o's noise is the o-th normal from the stream's counter, however many
+    outputs the read has: short reads draw in order, long ones in one vectorised pass,
+    and a read of every length in between gives the first outputs of a long one."""
+    def noise(n, counter):  # zero weights: the output is the noise alone (w_max 1, max|x| 1)
+        shape = (n, 4) if read == "matvec" else (4, n)
+        arr = xbar(np.zeros(shape), out_noise=0.3, w_max_q=1.0)
+        arr.state.rng[1] = counter  # the same counter for every shape
+        return getattr(arr, read)(np.ones(4))
+
+    for counter in range(0, 12000, 1000):  # ~1.5 % of the words take the slow path
+        longest = noise(400, counter)
+        assert np.all(longest != 0) and 0.2 < longest.std() < 0.4
+        for n in (1, 2, 17, 63, 64, 65, 100, 255, 256, 399):
+            np.testing.assert_array_equal(noise(n, counter), longest[:n],
+                                          err_msg=f"{n} outputs from counter {counter}")
+
+
 # the pulsed coincidence update ------------------------------------------------------------
 def test_pulsed_update_is_unbiased_with_binomial_counts():
     n, K, lr, z = 48, 300, 0.005, []
@@ -331,6 +365,7 @@ def test_same_seed_same_run_other_seed_other_devices():
     assert not np.array_equal(a.to_float(), d.to_float())
 
 
+@pytest.mark.slow
 def test_ideal_trains_to_the_float_metrics():
     kw = dict(seeds=range(2), trials=40, arena_size=12,
               train=TrainConfig(walks=12, steps=300), path="reference", epoch=6)

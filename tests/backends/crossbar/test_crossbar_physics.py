@@ -415,6 +415,7 @@ def test_a_state_saved_before_the_calibrated_fields_restores_with_the_old_physic
 
 
 # cml-edge device characterize ------------------------------------------------------------------
+@pytest.mark.slow
 def test_characterize_json_keys_and_plot(cli, tmp_path):
     png = tmp_path / "pcm.png"
     code, out, err = cli("device", "characterize", "--backend", "crossbar", "--preset", "pcm",

@@ -3,8 +3,8 @@
 Run from the old release's checkout (commit 30f00e8, before the one-folder-per-device
 layout), with its own ``cml_edge`` on ``sys.path``:
 
-    cd /work/base && PYTHONDONTWRITEBYTECODE=1 python \
-        /path/to/tests/data/legacy/generate.py /work/base /path/to/tests/data/legacy
+    cd OLD_CHECKOUT && PYTHONDONTWRITEBYTECODE=1 python \
+        /path/to/tests/data/legacy/generate.py OLD_CHECKOUT /path/to/tests/data/legacy
 
 It writes one ``.npz`` per case and ``expected.json``: what the old code read back from
 each file (the sha256 of each matrix's ``to_float()``), what ``cml-edge evaluate FILE
