@@ -22,7 +22,7 @@ from cml_edge.backends import array_from_state_dict, make_array
 from cml_edge.backends.crossbar.characterize import TIMES_S, characterize
 from cml_edge.backends.crossbar.conductance import prog_sigma
 from cml_edge.backends.crossbar.config import NEW_FIELDS, PRESETS, DeviceConfig, make_config
-from cml_edge.backends.crossbar.kernels import set_pulses
+from cml_edge.backends.crossbar.write import set_pulses
 from cml_edge.costs.ledger import energy_pj
 
 # no noise, variation or periphery: the effect under test alone
