@@ -11,11 +11,10 @@ compiled fast path, which call these same functions, make bit-identical draws, a
 is reproducible from its seed whatever order its pieces are computed in. The few draws
 that use NumPy generators instead (the CML's initial weights, the grid's evaluation pairs
 and obstacles, the DQN's evaluation starts) are listed in :mod:`cml_edge.protocol`.
+Standard normals are drawn from these words by :mod:`cml_edge.jit.gauss`.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numba import njit
@@ -64,11 +63,3 @@ def randint(key, counter, n):
     """An integer uniform on [0, n)."""
     i = int(uniform(key, counter) * n)
     return i if i < n else n - 1
-
-
-@njit("float64(uint64, uint64)", cache=True)
-def normal(key, counter):
-    """A standard normal (Box-Muller) from positions 2*counter and 2*counter + 1."""
-    u1 = 1.0 - uniform(key, np.uint64(2) * np.uint64(counter))
-    u2 = uniform(key, np.uint64(2) * np.uint64(counter) + np.uint64(1))
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)

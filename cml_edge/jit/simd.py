@@ -10,16 +10,23 @@ writes the lanes as one LLVM vector: 0.18 us.
 
 Each lane performs exactly the scalar code's operations, in the same order (a subtraction,
 a multiplication, an addition; IEEE 754, no fused multiply-add, no reassociation), so the
-results are the same bits; ``tests/backends/crossbar/test_crossbar_kernels.py`` holds them
-to a scalar loop.
+results are the same bits; ``tests/backends/test_references.py`` holds the reads that use
+them to the plain loops of ``cml_edge/backends/crossbar/reference.py``.
+
+Bit masks (SWAR: SIMD within a register) mark the nonzero entries of a vector, 64 to an
+int64 word (:func:`nonzero_masks`), so that a sparse read visits only its driven lines and
+a pulse train is one word (:func:`popcount` counts its pulses).
 """
 
 from __future__ import annotations
 
+import numpy as np
 from llvmlite import ir
-from numba import types
+from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
+
+from cml_edge.jit.kernel import kernel
 
 _F64 = ir.DoubleType()
 _I32 = ir.IntType(32)
@@ -123,3 +130,29 @@ def _splat(builder, value, vec):
     one = builder.insert_element(ir.Constant(vec, ir.Undefined), value, ir.Constant(_I32, 0))
     return builder.shuffle_vector(one, ir.Constant(vec, ir.Undefined),
                                   ir.Constant(ir.VectorType(_I32, vec.count), [0] * vec.count))
+
+
+@kernel
+def popcount(v):
+    """The set bits of a 64-bit word (int64 or uint64; the SWAR sum, which LLVM compiles
+    to one instruction)."""
+    v = np.uint64(v)
+    v = v - ((v >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    v = (v & np.uint64(0x3333333333333333)) + ((v >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    v = (v + (v >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return np.int64((v * np.uint64(0x0101010101010101)) >> np.uint64(56))
+
+
+@njit(cache=True, inline="always")
+def nonzero_masks(v, n, masks):
+    """Bit j % 64 of masks[j // 64] set where v[j] != 0 (NaN included), for j < n; returns
+    how many are. ``masks`` (int64, holding the bits of uint64 words) needs (n + 63) // 64
+    entries. Each word is built in a pass that vectorises."""
+    count = 0
+    for b in range((n + 63) >> 6):
+        mk = np.uint64(0)
+        for u in range(min(n - (b << 6), 64)):
+            mk |= np.uint64(v[(b << 6) + u] != 0.0) << np.uint64(u)
+        masks[b] = np.int64(mk)
+        count += popcount(mk)
+    return count

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from numba.core.errors import TypingError
 
-from cml_edge.backends.crossbar import kernels as crossbar
+from cml_edge.backends.crossbar import read as crossbar_read
+from cml_edge.backends.crossbar import write as crossbar_write
 from cml_edge.backends.fixed import kernels as fixed
 from cml_edge.backends.loihi2 import kernels as loihi2
 from cml_edge.grid.planning import plan_loop
@@ -56,8 +57,8 @@ def test_a_kernel_that_allocates_is_refused():
 
 @pytest.mark.parametrize("dispatcher", [
     train_loop, plan_loop, robot_training.train_loop, robot_planning.plan_loop,
-    crossbar._read, crossbar._commit, crossbar._pulsed_update, fixed._read,
-    fixed._outer_update, fixed.fixed_commit, loihi2.loihi2_outer_update,
+    crossbar_read._read, crossbar_write.commit_accumulated, crossbar_write.pulsed_update,
+    fixed._read, fixed._outer_update, fixed.fixed_commit, loihi2.loihi2_outer_update,
 ])
 def test_the_hot_loops_and_device_kernels_are_kernels(dispatcher):
     assert dispatcher.targetoptions["_nrt"] is False

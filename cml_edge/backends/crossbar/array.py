@@ -7,7 +7,8 @@ of a full conductance swing, is this array's weight-to-conductance scale: the
 configured ``w_max_q`` / ``w_max_k`` / ``w_max_v`` for the array's index (0, 1, 2 =
 W_q, W_k, W_v), or, when that is 0, ``w_headroom`` x max|W| of the matrix it was
 programmed with. The reads, updates, noise, drift and faults are the kernels'
-(:mod:`cml_edge.backends.crossbar.kernels`); the device numbers are a
+(:mod:`cml_edge.backends.crossbar.kernels`, composing :mod:`~.read`, :mod:`~.write` and
+:mod:`~.time`); the device numbers are a
 :class:`~cml_edge.backends.crossbar.config.DeviceConfig` (presets ``ideal``, ``pcm``,
 ``reram``, ``pcm-symmetric``, ``reram-symmetric``), which the kernels read as the
 :class:`~cml_edge.backends.crossbar.config.CrossbarParams` record.
@@ -23,7 +24,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray, laid_out
-from cml_edge.backends.crossbar import kernels as kern
+from cml_edge.backends.crossbar.codes import N_COUNTERS
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
     NEW_FIELDS,
@@ -32,8 +33,10 @@ from cml_edge.backends.crossbar.config import (
     crossbar_params,
     make_config,
 )
+from cml_edge.backends.crossbar.time import xbar_elapse, xbar_program
 from cml_edge.backends.params import record_names, record_to_array
 from cml_edge.errors import InputError
+from cml_edge.jit.gauss import BLOCK_PAD
 from cml_edge.jit.rng import stream_key
 from cml_edge.protocol import STREAM_DEVICE
 
@@ -51,20 +54,41 @@ class CrossbarState(NamedTuple):
     alpha: np.ndarray  # float64[1]: drift-compensation factor of the outputs (1 until drift)
     elapsed: np.ndarray  # float64[1]: seconds let pass with ``elapse``
     rng: np.ndarray  # uint64[2]: stream key, draw counter
-    xbuf: np.ndarray  # float64[max(rows, cols)]: scaled, converted inputs of a read, then
-    # the candidate normals of its noise (kernels._add_noise)
-    ybuf: np.ndarray  # float64[max(rows, cols)]: analog sums of a read
-    bits: np.ndarray  # int64[rows + cols]: pulse trains of the lines (bit t = slot t); in a
-    # read, the masks of its nonzero inputs and of its rejected noise words
-    idx: np.ndarray  # int64[max(rows, cols)]: the columns that fired
     nu_z: np.ndarray  # (2, rows, cols) float64: each device's fixed normal behind nu
     bnd: np.ndarray  # (4, rows, cols) float64: bounds lo, hi of G+, then of G- (uS)
     wn: np.ndarray  # (2, rows, cols) float64: write-noise offsets of G+, G- (uS)
     rn: np.ndarray  # (2, rows, cols) float64: accumulated read-noise draws of G+, G- (uS)
+    # work space (saved with the state, but no kernel reads what a call left: SCRATCH) ----
+    xbuf: np.ndarray  # float64[max(rows, cols)]: a read's inputs, scaled and converted
+    ybuf: np.ndarray  # float64[max(rows, cols)]: a read's analog sums
+    bits: np.ndarray  # int64[rows + cols]: an update's pulse trains, one word per line (bit
+    # t = slot t), rows first
+    idx: np.ndarray  # int64[max(rows, cols)]: an update's columns that fired
     sbuf: np.ndarray  # float64[rows + cols]: calibration reads' inputs and outputs
     vbuf: np.ndarray  # float64[max(rows, cols)]: per-output variance of a PCM_READ read
+    driven: np.ndarray  # int64[words(max(rows, cols))]: bit masks of a read's nonzero inputs
+    zbuf: np.ndarray  # float64[max(rows, cols) + BLOCK_PAD]: a read's noise normals
+    rejected: np.ndarray  # int64[words(len(zbuf))]: masks of the words the sampler's fast
+    # path rejects (cml_edge.jit.gauss.normals)
     counters: np.ndarray  # int64[N_COUNTERS]
 
+
+SCRATCH = ("xbuf", "ybuf", "bits", "idx", "sbuf", "vbuf", "driven", "zbuf", "rejected")
+"""The state's work space: no kernel reads what an earlier call left there."""
+
+
+def _scratch(rows: int, cols: int) -> dict[str, np.ndarray]:
+    """Fresh work space of a (rows, cols) array (:data:`SCRATCH`)."""
+    n = max(rows, cols)
+    return {"xbuf": np.zeros(n), "ybuf": np.zeros(n), "bits": np.zeros(rows + cols, np.int64),
+            "idx": np.zeros(n, np.int64), "sbuf": np.zeros(rows + cols), "vbuf": np.zeros(n),
+            "driven": np.zeros(_words(n), np.int64), "zbuf": np.zeros(n + BLOCK_PAD),
+            "rejected": np.zeros(_words(n + BLOCK_PAD), np.int64)}
+
+
+def _words(bits: int) -> int:
+    """The int64 words that hold ``bits`` bits."""
+    return (bits + 63) // 64
 
 
 def _laid_out(a: np.ndarray) -> np.ndarray:
@@ -100,7 +124,7 @@ class CrossbarArray(SynapticArray):
         "device_pulses", "devices_written", "commits", "rng_draws", "refreshes",
         "refresh_pulses", "calibration_reads", "bm_rereads",
     )
-    assert len(counter_names) == kern.N_COUNTERS
+    assert len(counter_names) == N_COUNTERS
 
     def __init__(self, state: CrossbarState, config: DeviceConfig | None = None,
                  preset: str = DEFAULT_PRESET) -> None:
@@ -116,7 +140,7 @@ class CrossbarArray(SynapticArray):
 
         The array's random stream is ``stream_key(seed, STREAM_DEVICE + index)``; its
         per-device constants and initial programming noise are drawn from it first
-        (:func:`cml_edge.backends.crossbar.kernels.xbar_program`).
+        (:func:`cml_edge.backends.crossbar.time.xbar_program`).
         """
         config = make_config(preset, **fields)
         W = np.asarray(W, dtype=np.float64)
@@ -127,7 +151,7 @@ class CrossbarArray(SynapticArray):
         w_max = config.w_max_for(index) or config.w_headroom * float(np.abs(W).max()) or 1.0
         state = _new_state(W.shape, crossbar_params(config, w_max),
                            stream_key(int(seed), STREAM_DEVICE + int(index)))
-        kern.xbar_program(state, W)
+        xbar_program(state, W)
         return cls(state, config, preset)
 
     def options(self) -> dict[str, Any]:
@@ -158,15 +182,11 @@ class CrossbarArray(SynapticArray):
         preset = options.pop("preset", cls.DEFAULT_PRESET)
         state = state._replace(Gp=_laid_out(state.Gp), Gm=_laid_out(state.Gm),
                                acc=laid_out(np.asarray(state.acc, dtype=np.float64)))
-        n = max(state.Gp.shape)
-        for f, size in (("xbuf", n), ("ybuf", n), ("idx", n), ("bits", sum(state.Gp.shape)),
-                        ("rng", 2), ("alpha", 1), ("elapsed", 1)):
-            if getattr(state, f).shape != (size,):
+        sizes = {f: a.shape for f, a in _scratch(*state.Gp.shape).items()}
+        for f, shape in (*sizes.items(), ("rng", (2,)), ("alpha", (1,)), ("elapsed", (1,))):
+            if getattr(state, f).shape != shape:
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
-                                 f"expected ({size},)")
-        if state.sbuf.shape != (sum(state.Gp.shape),) or state.vbuf.shape != (n,):
-            raise InputError(f"fields 'sbuf' / 'vbuf' have shapes {state.sbuf.shape} / "
-                             f"{state.vbuf.shape}, expected ({sum(state.Gp.shape)},) / ({n},)")
+                                 f"expected {shape}")
         for f, k in (("step", 4), ("nu", 2), ("age", 2), ("stuck", 2), ("nu_z", 2),
                      ("bnd", 4), ("wn", 2), ("rn", 2)):
             if getattr(state, f).shape != (k, *state.Gp.shape):
@@ -185,7 +205,7 @@ class CrossbarArray(SynapticArray):
         the record is rebuilt from the saved options and the saved w_max, and the old
         vector must equal that record's legacy view, or the file is refused."""
         if "__params__" in d or "params" not in d:
-            return _upgrade_calibrated(d)
+            return _upgrade_scratch(_upgrade_calibrated(d))
         old = np.asarray(d["params"])
         if old.dtype != np.float64 or old.shape != (len(LEGACY_PARAMS),):
             raise InputError(f"field 'params' has shape {old.shape}, expected "
@@ -196,9 +216,9 @@ class CrossbarArray(SynapticArray):
         record = crossbar_params(make_config(preset, **options), slots["w_max"])
         if not np.array_equal(legacy_params(record, slots["alpha"], slots["elapsed"]), old):
             raise InputError("crossbar parameters do not match the saved options")
-        return _upgrade_calibrated(
+        return _upgrade_scratch(_upgrade_calibrated(
             {**d, "params": record_to_array(record), "__params__": record_names(record),
-             "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])})
+             "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])}))
 
     # the seam extras ----------------------------------------------------------------
     def to_float(self) -> np.ndarray:
@@ -213,7 +233,7 @@ class CrossbarArray(SynapticArray):
         seconds = float(seconds)
         if not math.isfinite(seconds) or seconds < 0:
             raise InputError(f"elapsed time {seconds!r} is not allowed (allowed: seconds >= 0)")
-        kern.xbar_elapse(self.state, seconds)
+        xbar_elapse(self.state, seconds)
 
     @property
     def w_max(self) -> float:
@@ -231,20 +251,16 @@ class CrossbarArray(SynapticArray):
 
 def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
     rows, cols = shape
-    n = max(rows, cols)
     order = "F"
     return CrossbarState(
         Gp=np.zeros(shape, order=order), Gm=np.zeros(shape, order=order),
         acc=laid_out(np.zeros(shape)), step=np.ones((4, rows, cols)),
         nu=np.zeros((2, rows, cols)), age=np.zeros((2, rows, cols)),
         stuck=np.zeros((2, rows, cols), np.int8), params=params, alpha=np.ones(1),
-        elapsed=np.zeros(1),
-        rng=np.array([key, 0], dtype=np.uint64), xbuf=np.zeros(n), ybuf=np.zeros(n),
-        bits=np.zeros(rows + cols, np.int64), idx=np.zeros(n, np.int64),
+        elapsed=np.zeros(1), rng=np.array([key, 0], dtype=np.uint64),
         nu_z=np.zeros((2, rows, cols)), bnd=_nominal_bounds(params, rows, cols),
         wn=np.zeros((2, rows, cols)), rn=np.zeros((2, rows, cols)),
-        sbuf=np.zeros(rows + cols), vbuf=np.zeros(n),
-        counters=np.zeros(kern.N_COUNTERS, np.int64),
+        counters=np.zeros(N_COUNTERS, np.int64), **_scratch(rows, cols),
     )
 
 
@@ -284,7 +300,7 @@ def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if any(getattr(record, k) != v for k, v in old.items()):
             raise InputError("crossbar parameters do not match the saved options")
         out.update(params=record_to_array(record), __params__=record_names(record))
-    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn", "sbuf", "vbuf")):
+    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn")):
         return d  # the current layout
     else:
         record = dict(zip(names, np.asarray(d["params"]).tolist()))
@@ -296,12 +312,19 @@ def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     out.setdefault("bnd", _nominal_bounds(record, rows, cols))
     out.setdefault("wn", np.zeros((2, rows, cols)))
     out.setdefault("rn", np.zeros((2, rows, cols)))
-    out.setdefault("sbuf", np.zeros(rows + cols))
-    out.setdefault("vbuf", np.zeros(max(rows, cols)))
-    if counters.ndim == 1 and counters.shape[0] < kern.N_COUNTERS:
+    if counters.ndim == 1 and counters.shape[0] < N_COUNTERS:
         out["counters"] = np.concatenate(
-            [counters, np.zeros(kern.N_COUNTERS - counters.shape[0], counters.dtype)])
+            [counters, np.zeros(N_COUNTERS - counters.shape[0], counters.dtype)])
     return out
+
+
+def _upgrade_scratch(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A state saved before one of the work-space fields (:data:`SCRATCH`) existed gets it
+    fresh: no kernel reads what such a field held."""
+    if "Gp" not in d or np.asarray(d["Gp"]).ndim != 2:
+        return d  # refused by the loader
+    missing = {f: a for f, a in _scratch(*np.asarray(d["Gp"]).shape).items() if f not in d}
+    return {**d, **missing}
 
 
 def _nominal_bounds(params: Any, rows: int, cols: int) -> np.ndarray:

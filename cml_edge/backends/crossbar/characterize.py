@@ -2,8 +2,9 @@
 
 Everything is measured on the project's own arrays, through the kernels training uses
 (:mod:`cml_edge.backends.crossbar.kernels`): a column of N devices is programmed with
-``xbar_program`` (the array's construction), drifted with ``xbar_elapse``, and pulsed
-by ``xbar_commit`` with one pulse's worth in the accumulator. Statistics are over the
+``xbar_program`` (the array's construction, :mod:`~cml_edge.backends.crossbar.time`),
+drifted with ``xbar_elapse``, and pulsed by ``xbar_commit`` with one pulse's worth in the
+accumulator. Statistics are over the
 G+ device of each pair (its partner is at g_min on a one-sided pair, mirrored on a
 two-sided one). Nothing here evaluates a formula of the model: the tests compare these
 measurements with the formulas (``tests/backends/crossbar/test_crossbar_physics.py``).

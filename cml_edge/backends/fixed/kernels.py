@@ -49,6 +49,9 @@ weights read (reads, and read-modify-writes of a weight); ``acc_writes`` /
 ``acc_saturations`` (learning accumulator), ``mac_saturations`` (read accumulator);
 ``rng_draws``; ``bytes_read`` / ``bytes_written`` the weight and accumulator bytes moved
 (weights at their storage width, the accumulator at its own).
+
+The same arithmetic as plain loops, which the tests hold these kernels to:
+:mod:`cml_edge.backends.fixed.reference`.
 """
 
 from __future__ import annotations
@@ -404,15 +407,16 @@ def _add_outer(target, limit, rf, cq, rows, cols, k, top, mode, rng, tally, coun
 
 @njit(cache=True, inline="always")
 def fixed_outer_update(state, post, pre, lr, defer):
+    # the reads' sums vector, free during an update, holds the stochastic line's ranks
     _outer_update(state.mantissa, state.acc, state.params, state.rng, state.xq, state.yq,
                   state.tally, state.counters, state.sums, post, pre, lr, defer)
 
 
 @kernel
-def _outer_update(m, acc, p, rng, rf, cq, tally, c, work, post, pre, lr, defer):
+def _outer_update(m, acc, p, rng, rf, cq, tally, c, rank, post, pre, lr, defer):
     """W += lr post pre^T (or into the accumulator when ``defer``) on the state's arrays
-    (passed one by one: see :func:`cml_edge.backends.crossbar.kernels.read`); ``work`` is
-    the reads' sums vector, free during an update."""
+    (passed one by one: see :func:`cml_edge.backends.crossbar.read.read`); ``rank`` is
+    work space of the stochastic line (:func:`_ranked_line`): the state's ``sums``."""
     rows, cols = m.shape
     c[OUTER_UPDATES] += 1
     lr_m, lr_e = lr_mantissa(lr, p.lr_bits)
@@ -430,7 +434,7 @@ def _outer_update(m, acc, p, rng, rf, cq, tally, c, work, post, pre, lr, defer):
     if defer:
         k = p.exp - p.frac - (lr_e + e_p + e_q)
         touched = _add_outer(acc, p.acc_max, rf, cq, rows, cols, k, top, mode, rng, tally,
-                             False, work)
+                             False, rank)
         c[ACC_WRITES] += tally[0]
         c[ACC_SATURATIONS] += tally[2]
         c[BYTES_READ] += tally[0] * acc.itemsize
@@ -438,7 +442,7 @@ def _outer_update(m, acc, p, rng, rf, cq, tally, c, work, post, pre, lr, defer):
     else:
         k = p.exp - (lr_e + e_p + e_q)
         touched = _add_outer(m, p.qmax, rf, cq, rows, cols, k, top, mode, rng, tally, True,
-                             work)
+                             rank)
         c[WEIGHT_READS] += tally[0]
         c[WEIGHT_WRITES] += tally[0]
         c[CELLS_CHANGED] += tally[1]

@@ -17,6 +17,10 @@ The update W += lr * post pre^T runs along the contiguous axis and skips columns
 (tall) or rows (wide) whose factor is exactly zero, which keep their bits; elsewhere
 a zero factor adds an exact zero, so the cell keeps its value. ``macs`` counts the
 multiply-adds actually performed.
+
+The state's ``buf`` is work space: a read's sums, an update's row (tall) or column (wide)
+factors. The same arithmetic as plain loops, which the tests hold these kernels to:
+:mod:`cml_edge.backends.floating.reference`.
 """
 
 from __future__ import annotations

@@ -74,6 +74,9 @@ operations of reads (nonzero payloads x fan-out); ``neuron_wraps``; ``update_mac
 the product terms formed; ``epochs``; ``weight_writes`` and ``cells_changed``;
 ``sign_clips`` (accumulators saturated by sign mode); ``rng_draws``; bits and bytes
 moved (weights at 9 bits, the accumulator at 16).
+
+The same arithmetic as plain loops, which the tests hold these kernels to:
+:mod:`cml_edge.backends.loihi2.reference`.
 """
 
 from __future__ import annotations

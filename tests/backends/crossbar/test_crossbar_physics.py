@@ -28,7 +28,7 @@ from cml_edge.backends.crossbar.config import (
     DeviceConfig,
     make_config,
 )
-from cml_edge.backends.crossbar.kernels import set_pulses
+from cml_edge.backends.crossbar.write import set_pulses
 from cml_edge.costs.ledger import energy_pj
 
 # no noise, variation or periphery: the effect under test alone

@@ -1,0 +1,538 @@
+"""The crossbar's write path: pulses, step models, cycle-to-cycle and write noise,
+refresh, write-verify; the updates and the commit built from them.
+
+Update, W += lr post pre^T:
+
+- per walk (``defer``): lr post pre^T is added to a digital float64 accumulator
+  (``acc``; :func:`accumulate`); the commit (:func:`commit_accumulated`) then, by
+  ``commit`` mode, sends n = trunc(acc / dw_min) programming pulses to each pair and
+  keeps the remainder in the accumulator (mixed precision), or write-verifies each pair
+  whose target moved, drawing fresh programming noise for it (:func:`_program_device`);
+- in place (not ``defer``), ``pulsed`` (:func:`pulsed_update`): the stochastic
+  coincidence update of Gokmen & Vlasov (2016). BL = min(ceil(lr max|x| max|d| / dw_min),
+  bl_max) slots; column j fires in each slot with probability A |x_j|, row i with
+  B |d_i|, A = sqrt(lr / (dw_min BL)) sqrt(max|d| / max|x|), B = sqrt(lr / (dw_min BL))
+  sqrt(max|x| / max|d|); each coincidence moves pair (i, j) one nominal step dw_min in
+  the direction sign(x_j d_i) (G+ up and G- down, or the reverse), so
+  E[dw_ij] = BL (A|x_j|)(B|d_i|) dw_min = lr x_j d_i. ``analog``
+  (:func:`analog_update`): the exact change (an ideal device; stochastically rounded to
+  the grid when there is one).
+
+A pulse moves a device by dG s (1 + dw_min_std z) (:func:`_move`), dG the level
+spacing, s the device's fixed up or down scale (device-to-device spread and up/down
+asymmetry), z ~ N(0, 1) fresh per pulse; soft bounds scale it by 2 (g_max - G) /
+(g_max - g_min) going up, 2 (G - g_min) / (g_max - g_min) going down. Every write clips
+a device to [g_min, g_max]; stuck devices never change. Only devices actually pulsed or
+programmed are written (and get write noise); a write restarts the device's drift clock
+(:func:`cml_edge.backends.crossbar.time.mark_written`).
+
+Calibrated physics (each off at its config default, and then the code paths and draws
+above are exactly those of earlier releases): a ``one-sided`` mapping programs one device
+of a pair to g_min; a ``set_only`` pair sends each pulse to one device, up (G+ to raise
+w, G- to lower it), and a ``refresh`` pair that saturates is RESET and its difference
+write-verified onto the larger device (:func:`_refresh_pair`); ``step_model`` gives the
+step's dependence on G (:func:`step_factor`) between the device's own bounds ``bnd``
+and ``c2c`` its cycle-to-cycle noise (:func:`_move_model`); ``write_noise`` reads a
+pulsed device as its hidden state plus a fresh offset (``wn``; :func:`_pulse_device`).
+
+Draw order (the array's stream): per pulse and device, the c2c normal then the
+write-noise normal; a refresh's programming noise after its pair's pulses; a pulsed
+update draws the column trains (column by column, each slot by slot), then each row's
+train followed by the pulses of that row's coincidences, column by column; an analog
+update one uniform per cell with both factors nonzero, row by row; a commit visits the
+pairs row by row.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from cml_edge.backends.crossbar.codes import (
+    ACC_WRITES,
+    BOUNDS_SOFT,
+    C2C_ADD,
+    C2C_MULT,
+    COINCIDENCES,
+    COMMIT_PULSE,
+    DEVICE_PULSES,
+    DEVICES_WRITTEN,
+    LINE_PULSES,
+    OK,
+    ONE_SIDED,
+    REFRESH_PULSES,
+    REFRESHES,
+    RNG_DRAWS,
+    STEP_BOUNDS,
+    STEP_EXP,
+    STEP_LINEAR,
+    STEP_POW,
+    STEP_SOFT,
+)
+from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.time import mark_written
+from cml_edge.jit.gauss import normal_at
+from cml_edge.jit.kernel import kernel
+from cml_edge.jit.rng import uniform
+from cml_edge.jit.simd import popcount
+
+_ONE = np.uint64(1)
+
+
+# pulses --------------------------------------------------------------------------------
+@kernel
+def _pulse_train(p, bl, key, ctr):
+    """A stochastic pulse train of ``bl`` slots, each fired with probability min(p, 1).
+
+    Returns the train as a bitmask (bit t = slot t) and the advanced draw counter; a
+    line with p == 0 draws nothing.
+    """
+    b = 0
+    if p != 0.0:
+        p = min(p, 1.0)
+        for t in range(bl):
+            if uniform(key, ctr) < p:
+                b |= 1 << t
+            ctr += _ONE
+    return b, ctr
+
+
+
+@kernel
+def _move(g, up, s, z, P):
+    """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
+    (step_model ``bounds``, the model of earlier releases)."""
+    g_min = P.g_min
+    g_max = P.g_max
+    d = P.dG * s * (1.0 + P.dw_min_std * z)
+    if P.bounds == BOUNDS_SOFT:
+        if up:
+            d *= 2.0 * (g_max - g) / (g_max - g_min)
+        else:
+            d *= 2.0 * (g - g_min) / (g_max - g_min)
+    if P.set_only and d < 0.0:  # a SET pulse never lowers G
+        d = 0.0
+    g = g + d if up else g - d
+    return min(max(g, g_min), g_max)
+
+
+@kernel
+def step_factor(g, up, lo, hi, P):
+    """The mean step of one pulse at conductance g, in units of the device's nominal step
+    s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
+    lo / hi the device's bounds); never negative."""
+    m = P.step_model
+    span = hi - lo
+    if not span > 0.0:
+        return 0.0
+    g0 = lo + P.step_center * span
+    if m in (STEP_LINEAR, STEP_SOFT):
+        if up:
+            f = 1.0 - (P.gamma_up if m == STEP_LINEAR else 1.0) * (g - g0) / (hi - g0)
+        else:
+            f = 1.0 - (P.gamma_down if m == STEP_LINEAR else 1.0) * (g - g0) / (lo - g0)
+    elif m == STEP_EXP:
+        zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if up:
+            f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * zz)
+        else:
+            f = 1.0 - P.exp_a_down * math.exp(-P.exp_gamma_down * zz)
+    elif m == STEP_POW:
+        r = (hi - g) / span if up else (g - lo) / span
+        f = r ** P.pow_gamma if r > 0.0 else 0.0
+    elif P.bounds == BOUNDS_SOFT:
+        f = 2.0 * (P.g_max - g) / (P.g_max - P.g_min) if up else \
+            2.0 * (g - P.g_min) / (P.g_max - P.g_min)
+    else:
+        f = 1.0
+    return max(f, 0.0)
+
+
+@kernel
+def _move_model(g, up, s, z, lo, hi, P):
+    """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
+    (module docstring), clipped to its bounds [lo, hi]."""
+    dG = P.dG
+    f = step_factor(g, up, lo, hi, P)
+    step = dG * s * f
+    c = P.c2c
+    if c == C2C_MULT:
+        sd = P.dw_min_std * step
+    elif c == C2C_ADD:
+        sd = P.dw_min_std * dG * s
+    else:
+        g0 = lo + P.step_center * (hi - lo)
+        sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
+                             + P.c2c_slope * abs(g - g0))
+    if P.set_only:
+        # a SET pulse never lowers G: the step is log-normal with the model's mean and std
+        d = 0.0
+        if step > 0.0:
+            cv = sd / step
+            v = math.log1p(cv * cv)
+            d = step * math.exp(math.sqrt(v) * z - 0.5 * v)
+    else:
+        d = step + sd * z
+    g = g + d if up else g - d
+    return min(max(g, lo), hi)
+
+
+@njit(cache=True, inline="always")
+def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
+    """Device d of pair (i, j), at apparent conductance G, after one pulse; with write
+    noise, the pulse moves the hidden state G - wn and a fresh offset w write_noise dG
+    is read on top of it."""
+    s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
+    h = G - wn[d, i, j] if P.write_noise > 0.0 else G
+    if P.step_model == STEP_BOUNDS:
+        h = _move(h, up, s, z, P)
+    else:
+        h = _move_model(h, up, s, z, bnd[2 * d, i, j], bnd[2 * d + 1, i, j], P)
+    if P.write_noise > 0.0:
+        G = min(max(h + P.write_noise * P.dG * w, P.g_min), P.g_max)
+        wn[d, i, j] = G - h
+        return G
+    return h
+
+
+
+@kernel
+def set_pulses(target, P):
+    """SET pulses the mean device (s = 1, no noise, nominal bounds) needs from g_min to
+    ``target``: what a refresh's write-verify costs (at most 100,000)."""
+    if not P.dG > 0.0:
+        return 0
+    g = P.g_min
+    n = 0
+    while g < target and n < 100000:
+        g2 = min(g + P.dG * step_factor(g, True, P.g_min, P.g_max, P), P.g_max)
+        n += 1
+        if not g2 > g:
+            break
+        g = g2
+    return n
+
+
+@kernel
+def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key, ctr):
+    """Refresh pair (i, j) if it is saturated (``refresh``): RESET both devices, then
+    write-verify the pair's difference onto the device that was larger."""
+    rng = P.g_max - P.g_min
+    up_ = (Gp[i, j] - P.g_min) / rng
+    um = (Gm[i, j] - P.g_min) / rng
+    big = max(up_, um)
+    small = min(up_, um)
+    if not (big > P.refresh_upper and small > P.refresh_lower):
+        return ctr
+    diff = Gp[i, j] - Gm[i, j]
+    pulses = 2  # the two RESETs
+    for d in range(2):
+        target = P.g_min
+        if d == 0 and diff > 0.0:
+            target = P.g_min + diff
+        elif d == 1 and diff < 0.0:
+            target = P.g_min - diff
+        if stuck[d, i, j] != OK:
+            continue
+        G, ctr = _program_device(target, 0.0, P, key, ctr, bnd[2 * d, i, j],
+                                 bnd[2 * d + 1, i, j])
+        if target > P.g_min:
+            pulses += set_pulses(target, P)
+        if d == 0:
+            Gp[i, j] = G
+        else:
+            Gm[i, j] = G
+        wn[d, i, j] = 0.0
+        mark_written(age, rn, nu, nu_z, P, d, i, j, target)
+    counters[REFRESHES] += 1
+    counters[REFRESH_PULSES] += pulses
+    return ctr
+
+
+@kernel
+def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
+                positive, key, ctr):
+    """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
+    pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
+    G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
+    then the write-noise normal (if ``write_noise``); a refresh then draws its
+    programming noise."""
+    noisy = P.dw_min_std != 0.0
+    if P.step_model == STEP_BOUNDS and not P.set_only and P.write_noise == 0.0:
+        # the pulse loop of earlier releases, draw for draw
+        for _ in range(n):
+            for d in range(2):
+                up = positive if d == 0 else not positive
+                z = 0.0
+                if noisy:
+                    z, ctr = normal_at(key, ctr)
+                if stuck[d, i, j] != OK:
+                    continue
+                s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
+                if d == 0:
+                    Gp[i, j] = _move(Gp[i, j], up, s, z, P)
+                else:
+                    Gm[i, j] = _move(Gm[i, j], up, s, z, P)
+        mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+        mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+    else:
+        wnoisy = P.write_noise > 0.0
+        first = 0 if (positive or not P.set_only) else 1
+        last = 1 if (not positive or not P.set_only) else 0
+        for _ in range(n):
+            for d in range(first, last + 1):
+                up = True if P.set_only else (positive if d == 0 else not positive)
+                z = 0.0
+                w = 0.0
+                if noisy:
+                    z, ctr = normal_at(key, ctr)
+                if wnoisy:
+                    w, ctr = normal_at(key, ctr)
+                if stuck[d, i, j] != OK:
+                    continue
+                if d == 0:
+                    Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, up, z, w)
+                else:
+                    Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, up, z, w)
+        for d in range(first, last + 1):
+            mark_written(age, rn, nu, nu_z, P, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
+    if P.refresh != 0:
+        ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
+                            ctr)
+    return ctr
+
+
+# write-verify ---------------------------------------------------------------------------
+@kernel
+def _program_device(G, delta, P, key, ctr, lo, hi):
+    """Write-verify a device to the level nearest G + delta, with programming noise,
+    within its bounds [lo, hi] (g_min / g_max unless ``bound_dtod_*``)."""
+    g_min = P.g_min
+    g_max = P.g_max
+    target = snap_to_level(G + delta, g_min, g_max, P.dG)
+    sigma = prog_sigma(target, P.prog_noise, P.prog_c0, P.prog_c1, P.prog_c2, P.prog_gref,
+                       g_max)
+    if sigma > 0.0:
+        z, ctr = normal_at(key, ctr)
+        target += sigma * z
+        if target < g_min:
+            target = g_min
+        elif target > g_max:
+            target = g_max
+    return min(max(target, lo), hi), ctr
+
+
+# updates and the commit ------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def accumulate(acc, counters, post, pre, lr):
+    """acc += lr post pre^T on the cells whose pre factor is nonzero, each (lr post_i)
+    pre_j; counts the cells written (``acc_writes``)."""
+    rows, cols = acc.shape
+    touched = 0
+    if rows >= cols:  # column-major (tall): along columns, skipping zero pre factors
+        for j in range(cols):
+            q = pre[j]
+            if q == 0.0:
+                continue
+            touched += rows
+            for i in range(rows):
+                acc[i, j] += (lr * post[i]) * q
+    else:  # row-major (wide): along rows, the same cells
+        for j in range(cols):
+            touched += rows * (pre[j] != 0.0)
+        for i in range(rows):
+            p = lr * post[i]
+            for j in range(cols):
+                q = pre[j]
+                if q != 0.0:
+                    acc[i, j] += p * q
+    counters[ACC_WRITES] += touched
+
+
+@kernel
+def pulsed_update(state, post, pre, lr):
+    Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
+                                   state.wn)
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
+    P = state.params
+    bits = state.bits
+    idx = state.idx
+    rows, cols = Gp.shape
+    c = state.counters
+    dw_min = P.dw_min
+    xmax = 0.0
+    for j in range(cols):
+        xmax = max(xmax, abs(pre[j]))
+    dmax = 0.0
+    for i in range(rows):
+        dmax = max(dmax, abs(post[i]))
+    if not (xmax > 0.0 and dmax > 0.0 and lr > 0.0):
+        return
+    bl = int(math.ceil(lr * xmax * dmax / dw_min))
+    bl = max(1, min(bl, P.bl_max))
+    base = math.sqrt(lr / (dw_min * bl))
+    A = base * math.sqrt(dmax / xmax)
+    B = base * math.sqrt(xmax / dmax)
+    key = state.rng[0]
+    ctr = state.rng[1]
+    start = ctr
+    line_pulses = 0
+    live = 0
+    for j in range(cols):
+        b, ctr = _pulse_train(A * abs(pre[j]), bl, key, ctr)
+        bits[rows + j] = b
+        if b:
+            idx[live] = j
+            live += 1
+            line_pulses += popcount(b)
+    coincidences = 0
+    pairs = 0
+    for i in range(rows):
+        b, ctr = _pulse_train(B * abs(post[i]), bl, key, ctr)
+        bits[i] = b
+        if b == 0:
+            continue
+        line_pulses += popcount(b)
+        for k in range(live):
+            j = idx[k]
+            n = popcount(b & bits[rows + j])
+            if n:
+                coincidences += n
+                pairs += 1
+                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, i, j,
+                                  n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
+    state.rng[1] = ctr
+    per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
+    c[RNG_DRAWS] += np.int64(ctr - start)
+    c[LINE_PULSES] += line_pulses
+    c[COINCIDENCES] += coincidences
+    c[DEVICE_PULSES] += per_pair * coincidences
+    c[DEVICES_WRITTEN] += per_pair * pairs
+
+
+@kernel
+def analog_update(state, post, pre, lr):
+    """The exact change (an ideal device), stochastically rounded to the grid if any. A
+    SET-only pair puts the whole change on G+ (raising w) or G- (lowering it)."""
+    Gp = state.Gp
+    Gm = state.Gm
+    P = state.params
+    rows, cols = Gp.shape
+    g_min = P.g_min
+    g_max = P.g_max
+    dG = P.dG
+    set_only = P.set_only != 0
+    half = P.g_per_w if set_only else 0.5 * P.g_per_w
+    stuck = state.stuck
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
+    key = state.rng[0]
+    ctr = state.rng[1]
+    start = ctr
+    written = 0
+    for i in range(rows):
+        if post[i] == 0.0:
+            continue
+        p = lr * post[i]
+        for j in range(cols):
+            if pre[j] == 0.0:
+                continue
+            d = p * pre[j] * half
+            if dG > 0.0:
+                d = math.floor(d / dG + uniform(key, ctr)) * dG
+                ctr += _ONE
+                if d == 0.0:
+                    continue
+            if set_only:
+                k = 0 if d > 0.0 else 1
+                if stuck[k, i, j] == OK:
+                    if k == 0:
+                        Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
+                    else:
+                        Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
+                mark_written(age, rn, nu, nu_z, P, k, i, j, Gp[i, j] if k == 0 else Gm[i, j])
+                written += 1
+                continue
+            if stuck[0, i, j] == OK:
+                Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
+            if stuck[1, i, j] == OK:
+                Gm[i, j] = min(max(Gm[i, j] - d, g_min), g_max)
+            mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+            mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+            written += 2
+    state.rng[1] = ctr
+    state.counters[RNG_DRAWS] += np.int64(ctr - start)
+    state.counters[DEVICES_WRITTEN] += written
+
+
+
+@kernel
+def commit_accumulated(state):
+    Gp = state.Gp
+    Gm = state.Gm
+    acc = state.acc
+    P = state.params
+    stuck = state.stuck
+    bnd = state.bnd
+    wn = state.wn
+    step = state.step
+    counters = state.counters
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
+    rows, cols = Gp.shape
+    dw_min = P.dw_min
+    dG = P.dG
+    half = 0.5 * P.g_per_w
+    pulse = P.commit == COMMIT_PULSE
+    one_sided = P.mapping == ONE_SIDED
+    per_pair = 1 if P.set_only else 2
+    key = state.rng[0]
+    ctr = state.rng[1]
+    start = ctr
+    pulses = 0
+    written = 0
+    for i in range(rows):
+        for j in range(cols):
+            a = acc[i, j]
+            if a == 0.0:
+                continue
+            n = 0
+            if dG > 0.0:
+                n = int(a / dw_min)  # whole steps, toward zero; the rest stays
+                if n == 0:
+                    continue
+                acc[i, j] = a - n * dw_min
+                delta = n * dG
+            else:
+                acc[i, j] = 0.0
+                delta = a * half
+            if pulse:
+                written += per_pair
+                pulses += per_pair * abs(n)
+                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters,
+                                  P, i, j, abs(n), n > 0, key, ctr)
+                continue
+            written += 2
+            tp = Gp[i, j] + delta
+            tm = Gm[i, j] - delta
+            if one_sided:  # retarget both devices from the weight they hold
+                w = (Gp[i, j] - Gm[i, j]) / P.g_per_w + (n * dw_min if dG > 0.0 else a)
+                w = min(max(w, -P.w_max), P.w_max)
+                tp = P.g_min + max(w, 0.0) * P.g_per_w
+                tm = P.g_min + max(-w, 0.0) * P.g_per_w
+            if stuck[0, i, j] == OK:
+                Gp[i, j], ctr = _program_device(tp, 0.0, P, key, ctr, bnd[0, i, j],
+                                                bnd[1, i, j])
+                wn[0, i, j] = 0.0
+            if stuck[1, i, j] == OK:
+                Gm[i, j], ctr = _program_device(tm, 0.0, P, key, ctr, bnd[2, i, j],
+                                                bnd[3, i, j])
+                wn[1, i, j] = 0.0
+            mark_written(age, rn, nu, nu_z, P, 0, i, j, tp)
+            mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
+    state.rng[1] = ctr
+    c = counters
+    c[RNG_DRAWS] += np.int64(ctr - start)
+    c[DEVICE_PULSES] += pulses
+    c[LINE_PULSES] += 2 * pulses  # a serial programming pulse drives one row and one column
+    c[DEVICES_WRITTEN] += written
