@@ -169,7 +169,7 @@ def _mac(Gp, Gm, xs, sums, transposed, driven, nnz):
         while k < rows:
             s0 += (Gp[k, o] - Gm[k, o]) * xs[k]
             k += 1
-        sums[o] = (((s0 + s1) + s2) + s3) + ((s4 + s5) + (s6 + s7))
+        sums[o] = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
 
 
 # 3. the read noise ---------------------------------------------------------------------
