@@ -160,7 +160,10 @@ class DeviceSpec:
     - ``report``: what the reference report runs on the device (:class:`Report`);
     - ``rule_fidelity``: preset -> (least correlation, projection range) of an update
       burst against the local rule, where a calibrated device's physics departs from the
-      default :data:`RULE_FIDELITY` (measured; the contract holds it to this).
+      default :data:`RULE_FIDELITY` (measured; the contract holds it to this);
+    - ``draws``: whether an array of a config draws from its device stream (a function
+      of the config, or a constant): where it draws nothing, every chip seed gives the
+      same chip, and ``--chips`` is refused (:mod:`cml_edge.grid.chips`).
     """
 
     array_class: type
@@ -172,6 +175,7 @@ class DeviceSpec:
     cost: CostModel | Callable[[Any], CostModel] | None = None
     report: Report = field(default_factory=Report)
     rule_fidelity: Mapping[str, RuleFidelity] = field(default_factory=dict)
+    draws: bool | Callable[[Any], bool] = False
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():
@@ -265,6 +269,9 @@ class DeviceSpec:
         options, shown = dict(options or {}), dict(shown or {})
         for text in settings:
             name, value = parse_setting(self.config_class, text, self.name)
+            if name in options and options[name] != value:
+                raise InputError(f"{shown.get(name, name)} conflicts with --set {text.strip()}: "
+                                 f"give {name} once")
             options[name] = value
             shown[name] = f"--set {text.strip()}"
         for name, fixed in self.fixes(backend).items():
@@ -309,6 +316,10 @@ class DeviceSpec:
         """The report's break points on this device: (label, backend, options, knob)."""
         return [(*c, knob) for entry, knobs in self.report.breakpoints
                 for c in self.configurations(entry) for knob in knobs]
+
+    def chips_differ(self, config: Any) -> bool:
+        """Whether two chip seeds give different arrays of ``config`` (``draws``)."""
+        return self.draws(config) if callable(self.draws) else bool(self.draws)
 
     def rule_fidelity_of(self, options: Mapping[str, Any]) -> RuleFidelity:
         """How closely a configuration given ``options`` must follow the local rule."""

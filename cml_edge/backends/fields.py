@@ -14,7 +14,12 @@ know about the field, so that no device writes code for it:
   are ``("w_max", 0..2)``);
 - ``kernel``: False keeps a field out of the kernels' parameter record
   (:mod:`cml_edge.backends.params`; per-matrix fields never enter it: the array's own
-  value does, as a derived quantity).
+  value does, as a derived quantity);
+- ``lo``, ``hi``, ``why``: the field's documented range (inclusive) and the one-line
+  reason for it, from the physics or the arithmetic (levels and bits a device can hold,
+  noise as a fraction, conductances in micro-siemens). :func:`check_ranges` refuses a
+  value outside it, the command line's help shows it (:func:`range_text`), the device
+  pages document it and the property test of the devices draws from it.
 
 A preset is a dict of field values; :func:`resolve` applies one (named by the
 ``preset`` option) and then the given fields. :func:`parse_setting` is the one parser of
@@ -43,11 +48,14 @@ _FALSE = ("0", "false", "no", "off")
 def option(default: Any = MISSING, *, flag: str | None = None, help: str | None = None,
            metavar: str | None = None, choices: tuple[str, ...] | None = None,
            per_matrix: str | tuple[str, int] | None = None, kernel: bool = True,
-           noun: str | None = None) -> Any:
+           noun: str | None = None, lo: float | None = None, hi: float | None = None,
+           why: str | None = None) -> Any:
     """A dataclass field with the metadata of the module docstring (``noun`` names the
     values of an ``"each"`` per-matrix flag in its error: "1 or 3 exponents")."""
+    if (lo is None) != (hi is None) or (lo is not None and (not lo <= hi or not why)):
+        raise ValueError(f"a range needs lo <= hi and a reason (lo {lo!r}, hi {hi!r})")
     meta = {"flag": flag, "help": help, "metavar": metavar, "choices": choices,
-            "per_matrix": per_matrix, "noun": noun}
+            "per_matrix": per_matrix, "noun": noun, "lo": lo, "hi": hi, "why": why}
     meta = {k: v for k, v in meta.items() if v is not None}
     if not kernel:
         meta["kernel"] = False
@@ -148,6 +156,40 @@ def _check_scalar(kind: type | None, f: Field, v: Any, label: str) -> None:
                          f"(allowed: {', '.join(choices)})")
 
 
+def field_range(cls: type, name: str) -> tuple[float, float, str] | None:
+    """(lo, hi, why) of field ``name`` (None: no declared range)."""
+    meta = next(f.metadata for f in fields(cls) if f.name == name)
+    return (meta["lo"], meta["hi"], meta["why"]) if "lo" in meta else None
+
+
+def range_text(cls: type, name: str) -> str:
+    """``lo..hi`` of field ``name`` ('' without a range), numbers as %g."""
+    r = field_range(cls, name)
+    return "" if r is None else f"{r[0]:g}..{r[1]:g}"
+
+
+def range_table(cls: type) -> str:
+    """The markdown table of the fields of ``cls`` that declare a range: field, range,
+    reason (the device pages carry it; a test holds them to the code)."""
+    rows = [f"| `{f.name}` | {range_text(cls, f.name)} | {f.metadata['why']} |"
+            for f in fields(cls) if "lo" in f.metadata]
+    return "\n".join(["| field | range | why |", "|---|---|---|", *rows])
+
+
+def check_ranges(config: Any, label: str) -> None:
+    """Every field of ``config`` with a declared range inside it (each value of a
+    per-matrix field); InputError naming the field, the value, the range and its
+    reason. Run after the types are checked."""
+    for f in fields(config):
+        if "lo" not in f.metadata:
+            continue
+        v = getattr(config, f.name)
+        for x in v if isinstance(v, tuple) else (v,):
+            if x is not None and not f.metadata["lo"] <= x <= f.metadata["hi"]:
+                raise InputError(f"{label}{f.name} {x!r} is outside its range "
+                                 f"{range_text(type(config), f.name)} ({f.metadata['why']})")
+
+
 def resolve(cls: type, presets: dict[str, dict[str, Any]], options: dict[str, Any],
             label: str, default_preset: str | None = None) -> Any:
     """The config ``cls`` of ``options``: the preset ``options["preset"]`` (or
@@ -207,6 +249,6 @@ def _parse_scalar(kind: type | None, raw: str, name: str, whole: str) -> Any:
         raise InputError(f"--set {name}={whole!r}: not a valid {what}") from None
 
 
-__all__ = ["MATRICES", "check_types", "coerce", "field_names",
+__all__ = ["MATRICES", "check_ranges", "check_types", "coerce", "field_names", "field_range",
            "matrix_value", "option", "parse_setting", "per_matrix_options", "resolve",
-           "scalar_kind"]
+           "range_table", "range_text", "scalar_kind"]

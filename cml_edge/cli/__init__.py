@@ -26,8 +26,10 @@ import sys
 
 from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
+from cml_edge.cli.args import limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
+from cml_edge.engine import limits
 from cml_edge.errors import InputError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
@@ -45,6 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for group in COMMAND_GROUPS:
         group.add_parsers(sub)
+    limit_options(parser)
     return parser
 
 
@@ -52,6 +55,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
+        estimate = limits.check(args)  # before any work: refuses what will not fit
+        if estimate:
+            print(estimate, file=sys.stderr)
         with announce_compiles(args):
             result = args.run(args)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden

@@ -2,7 +2,9 @@
 progress bar, and the synaptic-array options.
 
 An argument type raises ``argparse.ArgumentTypeError`` naming the value and what is
-allowed; the parser turns that into one line on stderr and exit status 2.
+allowed; the parser turns that into one line on stderr and exit status 2. Every count,
+size and seed option has a documented range (:data:`SIZES`, checked and shown in
+``--help`` by :func:`limit_options`); no integer option takes a value outside int64.
 """
 
 from __future__ import annotations
@@ -16,12 +18,19 @@ from typing import Any
 from tqdm import tqdm
 
 from cml_edge.backends import BACKENDS, DEVICES, DeviceSpec, backend_spec
-from cml_edge.backends.fields import field_names, scalar_kind
+from cml_edge.backends.base import MAX_IDLE_S
+from cml_edge.backends.fields import field_names, range_text, scalar_kind
 from cml_edge.errors import InputError
+
+INT64_MAX = 2**63 - 1
+SEED_MAX = 2**62
+"""The largest seed: stream keys and NumPy's generators take it from an int64 with room
+for the run's seeds and chips added to it."""
 
 
 def int_at_least(lo: int, what: str):
-    """An argparse type: an integer ``>= lo``; ``what`` says so in the error."""
+    """An argparse type: an integer ``>= lo`` (and within int64); ``what`` says so in the
+    error."""
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -29,6 +38,9 @@ def int_at_least(lo: int, what: str):
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
         if value < lo:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}")
+        if value > INT64_MAX:
+            raise argparse.ArgumentTypeError(f"{text!r} is beyond int64 (allowed: {what} "
+                                             f"and <= {INT64_MAX})")
         return value
 
     return parse
@@ -48,6 +60,70 @@ def finite_float(text: str) -> float:
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
     return value
+
+
+@dataclass(frozen=True)
+class Size:
+    """The documented range of a count, size or seed option, and its reason."""
+
+    lo: float
+    hi: float
+    why: str
+
+
+SIZES: dict[str, Size] = {
+    "seeds": Size(1, 100_000, "each seed trains one model: seconds to minutes of a core"),
+    "seed": Size(0, SEED_MAX, "a seed of an int64 stream key"),
+    "eval_seed": Size(0, SEED_MAX, "a seed of an int64 stream key"),
+    "first_chip": Size(0, SEED_MAX, "a chip seed of an int64 stream key"),
+    "chips": Size(1, 100_000, "each chip trains every model seed again"),
+    "walks": Size(1, 100_000, "exploration walks (the paper's 100)"),
+    "steps": Size(1, 1_000_000, "steps per walk (the paper's 900)"),
+    "dqn:steps": Size(1, 100_000_000, "environment steps per seed (the paper's 1e5..2e5)"),
+    "arena": Size(2, 1024, "cells a side: the largest MovingAI benchmark maps are 1024"),
+    "trials": Size(1, 1_000_000, "(start, goal) pairs"),
+    "max_steps": Size(1, 1_000_000, "actions per plan (100 for the 30 x 30 arena)"),
+    "max_actions": Size(1, 1_000_000, "actions per drive"),
+    "obstacles": Size(0, 1024 * 1024, "at most every cell of the largest arena"),
+    "devices": Size(2, 10_000_000, "devices per point of a characterization"),
+    "workers": Size(1, 1024, "worker processes"),
+    "repeats": Size(1, 10_000, "timed repeats"),
+    "goals": Size(1, 100_000, "goals driven to"),
+    "model_index": Size(0, 100_000, "an index into the saved models"),
+    "eval_every": Size(1, 100_000_000, "training steps between curve points"),
+    "drift_time": Size(0.0, MAX_IDLE_S, "seconds idle: up to 100 years, beyond any "
+                                        "device's measured drift"),
+}
+"""The count, size and seed options' ranges, by option name (``dest``; ``command:dest``
+for a command whose option of that name counts something else)."""
+
+
+def limit_options(parser: argparse.ArgumentParser, command: str = "") -> None:
+    """Give every option of ``parser`` and its sub-commands named in :data:`SIZES` its
+    range: checked when parsed (exit 2, one line naming the option, the value and the
+    range) and shown in ``--help``."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                limit_options(sub, f"{command} {name}".strip())
+            continue
+        size = SIZES.get(f"{command.split(' ')[0]}:{action.dest}") or SIZES.get(action.dest)
+        if size is None or action.type is None or not action.option_strings:
+            continue
+        action.type = _ranged(action.type, action.option_strings[0], size)
+        action.help = f"{action.help or ''} [{size.lo:g}..{size.hi:g}]".strip()
+
+
+def _ranged(parse, flag: str, size: Size):
+    def ranged(text: str):
+        value = parse(text)
+        if not size.lo <= value <= size.hi:
+            raise argparse.ArgumentTypeError(f"{text!r} is outside the range of {flag}, "
+                                             f"{size.lo:g}..{size.hi:g} ({size.why})")
+        return value
+
+    ranged.__name__ = getattr(parse, "__name__", "value")
+    return ranged
 
 
 def positive_float(text: str) -> float:
@@ -118,7 +194,9 @@ def _device_flags() -> dict[str, _Flag]:
             if flag is None:
                 continue
             kind = scalar_kind(device.config_class, f.name)
-            kwargs: dict[str, Any] = {"default": None, "help": f.metadata.get("help")}
+            limits = range_text(device.config_class, f.name)
+            kwargs: dict[str, Any] = {"default": None, "help": f.metadata.get("help")
+                                      + (f" [{limits}]" if limits else "")}
             if kind is bool:
                 kwargs["action"] = "store_true"
             else:
@@ -144,11 +222,14 @@ def add_backend(p: argparse.ArgumentParser, default: str = "float",
         if owner not in groups:
             groups[owner] = p.add_argument_group(f"{owner} array options")
         groups[owner].add_argument(flag, dest=entry.dest, **entry.kwargs)
-    fields_by_device = "; ".join(f"{name}: {', '.join(field_names(d.config_class))}"
-                                 for name, d in DEVICES.items())
+    fields_by_device = "; ".join(
+        f"{name}: " + ", ".join(f"{field} {range_text(d.config_class, field)}".strip()
+                                for field in field_names(d.config_class))
+        for name, d in DEVICES.items())
     p.add_argument("--set", dest=SET_DEST, action="append", default=[], metavar="FIELD=VALUE",
                    help="set a field of the backend's device, repeatable (a per-matrix "
-                        "field takes one value or three, comma-separated); fields: "
+                        "field takes one value or three, comma-separated); fields and "
+                        "their ranges (docs/devices/): "
                         + fields_by_device)
 
 
@@ -215,6 +296,13 @@ def chip_flags(args: argparse.Namespace) -> dict[str, Any] | None:
     first = 0 if args.first_chip is None else args.first_chip
     target = DEFAULT_YIELD_TARGET if args.yield_target is None else args.yield_target
     check_chips(args.chips, target, first)
+    device = backend_spec(getattr(args, "backend", "float")).device
+    config = device.make_config(**{**device.backend_options(args.backend),
+                                   **backend_options(args)})
+    if not device.chips_differ(config):
+        raise InputError(f"--chips {args.chips}: --backend {args.backend} has no "
+                         "device-to-device variation here (its arrays draw nothing), so every "
+                         "chip is the same chip; run without --chips")
     return {"n": args.chips, "yield_target": target, "first": first}
 
 

@@ -86,13 +86,14 @@ def _add_planner(p: argparse.ArgumentParser) -> None:
                         "(boundary following, LRTA* fallback; see cml_edge.grid.planning)")
 
 
-def _add_map(p: argparse.ArgumentParser) -> None:
+def _add_map(p: argparse.ArgumentParser, scen: bool = True) -> None:
     p.add_argument("--map", default=None, metavar="FILE",
                    help="plan on a MovingAI .map file (or a shipped map: rooms, utrap, "
                         "maze); the CML never sees it in training")
-    p.add_argument("--scen", default=None, metavar="FILE",
-                   help="MovingAI .scen file: its (start, goal) problems replace the drawn "
-                        "pairs (needs --map)")
+    if scen:  # navigate plans one --start / --goal: no problems to replace
+        p.add_argument("--scen", default=None, metavar="FILE",
+                       help="MovingAI .scen file: its (start, goal) problems replace the "
+                            "drawn pairs (needs --map)")
 
 
 def _load_map_args(args: argparse.Namespace):
@@ -157,7 +158,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--max-steps", type=positive_int, default=None,
                    help="step budget (100; with --map: max(100, ceil(100 x side / 30)))")
     _add_planner(p)
-    _add_map(p)
+    _add_map(p, scen=False)
     p.add_argument("--plot", help="write a PNG of the arena and the path")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(run=cmd_navigate, show=show_navigate)
@@ -256,8 +257,6 @@ def _model_fidelity(cml: CML, record: dict[str, Any], arena: GridArena, pairs: P
 
 
 def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
-    if args.scen:
-        raise InputError("--scen is not used by navigate (give --start and --goal)")
     grid, _ = _load_map_args(args)
     if args.plot:
         writable_file(args.plot, "--plot")

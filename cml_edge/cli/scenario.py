@@ -130,10 +130,14 @@ def show_breakpoint(r: dict[str, Any]) -> None:
     print(f"breakpoint: {r['knob']} ({r['field']}) on {r['scenario']}, "
           f"{device_label(r['backend'], r['backend_options'])}; {plural(r['seeds'], 'seed')}, "
           f"{r['budget']} budget")
+    if r.get("found", True):
+        found = [("break point", f"{num(r['value'])}: the last value toward the {r['good']} "
+                                 f"end whose success ({part}) is >= {r['target']:g}"),
+                 ("bracket", f"{num(r['bracket'][0])} passes, {num(r['bracket'][1])} fails")]
+    else:
+        found = [("break point", r["note"])]
     print("\n".join(labelled([
-        ("break point", f"{num(r['value'])}: the last value toward the {r['good']} end whose "
-                        f"success ({part}) is >= {r['target']:g}"),
-        ("bracket", f"{num(r['bracket'][0])} passes, {num(r['bracket'][1])} fails"),
+        *found,
         ("searched", f"{num(r['range'][0])} .. {num(r['range'][1])}, "
                      f"{plural(len(r['grid']), 'grid value')}")])))
     rows = [[num(e["value"]), pct(e["success_rate"])]

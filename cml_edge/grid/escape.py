@@ -114,17 +114,27 @@ def lrta_choice(f, fmin, score, mask):
 
 
 @njit(cache=True)
+def estimate(u, K, a):
+    """The CML's estimate of the steps to the goal, max_b u_b / K_bb, from here (``a`` -1)
+    or after the move ``a`` (u - K[:, a] predicted). A column of W_v that reads as zero
+    (K_bb = 0: a coarse ADC or 1-bit messages round it away) carries no distance and is
+    left out; with none readable the estimate is 0, and LRTA* explores by visits alone."""
+    e = -math.inf
+    for b in range(K.shape[0]):
+        if K[b, b] > 0.0:
+            e = max(e, (u[b] if a < 0 else u[b] - K[b, a]) / K[b, b])
+    return e if e > -math.inf else 0.0
+
+
+@njit(cache=True)
 def escape_choose(es, free, x, y, u, score, norms, K, mask):
     """One decision of the escape planner at (x, y) (the module docstring)."""
     n = free.shape[0]
-    n_a = K.shape[0]
     ist = es.ist
     seen = es.seen
     h = es.h
     f = es.f
-    e = -math.inf
-    for b in range(n_a):
-        e = max(e, u[b] / K[b, b])
+    e = estimate(u, K, -1)
     if not seen[x, y]:
         seen[x, y] = 1
         es.vis[ist[N_SEEN], 0] = x
@@ -140,10 +150,7 @@ def escape_choose(es, free, x, y, u, score, norms, K, mask):
             if seen[cx, cy]:
                 f[a] = 1.0 + h[cx, cy]
             else:
-                est = -math.inf
-                for b in range(n_a):
-                    est = max(est, (u[b] - K[b, a]) / K[b, b])
-                f[a] = 1.0 + est
+                f[a] = 1.0 + estimate(u, K, a)
         fmin = min(fmin, f[a])
     h[x, y] = max(h[x, y], fmin)
     best = wta(score, mask)  # the paper's choice

@@ -157,12 +157,12 @@ def _scorecard_markdown(report: dict[str, Any]) -> list[str]:
               f"The knob value at which the scenario's success (its worst part) last meets "
               f"the target, by bisection on a 17-point seeded grid from the knob's good end "
               f"(`cml-edge breakpoint`), {plan['breakpoint_seeds']} seeds, "
-              f"`{plan['budget']}` budget. n/a: the range does not bracket the target; the "
-              "note gives both ends' success.", "",
+              f"`{plan['budget']}` budget. none: no break point within the physical range (the "
+              "range does not bracket the target); the note gives both ends' success.", "",
               _table(["device", "knob", "scenario", "target", "value", "bracket",
                       "evaluations", "note"],
                      [[b["device"], b["knob"], b["scenario"], b["target"], b["value"],
-                       " .. ".join(fmt(v) for v in b["bracket"]) if b.get("bracket") else NA,
+                       " .. ".join(fmt(v) for v in b["bracket"]) if b.get("bracket") else "none",
                        b.get("n_evaluations"), b.get("note", "")] for b in bps])]
     rec = report["recovery"]
     if rec:
@@ -226,8 +226,8 @@ def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
                                                         else "0.8" for b in sel])
             for bar, b in zip(bars, sel):
                 if b["value"] is None:
-                    ax.text(bar.get_x() + bar.get_width() / 2, 0, "n/a", ha="center",
-                            va="bottom", fontsize=6)
+                    ax.text(bar.get_x() + bar.get_width() / 2, 0, "no break point\nwithin "
+                            "the\nphysical range", ha="center", va="bottom", fontsize=5)
             ax.set_xticks(range(len(sel)))
             ax.set_xticklabels([b["device"] for b in sel], rotation=60, fontsize=6)
             if any(b.get("log") for b in sel) and any(v > 0 for v in vals):

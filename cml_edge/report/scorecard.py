@@ -33,7 +33,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from cml_edge.backends import backend_spec, report_breakpoints, report_systems
-from cml_edge.errors import InputError
 from cml_edge.scenarios import SCENARIOS, run_scenario
 from cml_edge.scenarios.breakpoint import find_breakpoint, get_knob
 
@@ -129,12 +128,12 @@ def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan) -> dict[str, Any]:
                            "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
                            "seeds": plan.breakpoint_seeds, "budget": plan.budget,
                            "log": knob.log}
-    try:
-        res = find_breakpoint(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
-                              plan.breakpoint_seeds, bp.value_range, plan.budget,
-                              workers=plan.workers)
-    except InputError as err:  # not bracketed: a finding, reported as measured
-        return {**row, "value": None, "note": str(err)}
+    res = find_breakpoint(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
+                          plan.breakpoint_seeds, bp.value_range, plan.budget,
+                          workers=plan.workers)
+    if not res["found"]:  # not bracketed: a finding, reported as measured
+        return {**row, "value": None, "note": res["note"], "evaluations": res["evaluations"],
+                "n_evaluations": res["n_evaluations"]}
     return {**row, "value": res["value"], "bracket": res["bracket"], "good": res["good"],
             "range": res["range"], "evaluations": res["evaluations"],
             "n_evaluations": res["n_evaluations"]}

@@ -12,9 +12,11 @@ values and a rerun takes the same evaluations.
 
 :func:`find_breakpoint` runs the scenario (:func:`cml_edge.scenarios.runner.run_scenario`,
 every evaluation on the same seeds) at both ends. The range brackets the target when
-success at the good end is >= the target and at the bad end below it; otherwise bad input
-(naming both ends' values). Then bisection on the grid indices: the middle index passes
-or fails, and the bracket halves until its two values are neighbours. The result:
+success at the good end is >= the target and at the bad end below it; otherwise the
+result says there is no break point within the range (``found`` False, ``value`` None,
+``note`` naming both ends' success): a finding, not an error. Then bisection on the grid
+indices: the middle index passes or fails, and the bracket halves until its two values
+are neighbours. The result:
 ``value``, the last grid value (from the good end) at which success met the target;
 ``bracket`` (that value and the first failing neighbour); and every evaluation (knob
 value, success) in the order it ran. Bisection assumes success falls monotonically
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends import DEVICES, Knob, backend_spec
+from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.errors import InputError
 from cml_edge.scenarios.registry import get
 from cml_edge.scenarios.runner import run_scenario
@@ -45,7 +48,7 @@ IDLE = "idle_s"
 """The pseudo-field of the drift-time knob: seconds idle before planning."""
 
 GENERIC_KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("drift_time", IDLE, 1.0, 3.15576e9, "low", log=True,
+    Knob("drift_time", IDLE, 1.0, MAX_IDLE_S, "low", log=True,
          doc="seconds idle between the end of training and planning (100 years at the "
              "bad end); drifts only a device that drifts"),
 )}
@@ -152,6 +155,10 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     spec = backend_spec(backend)
     device = spec.device.name
     k = get_knob(knob, device)
+    given = [name for name in k.fields if name in (options or {})]
+    if given:
+        raise InputError(f"{given[0]} is given ({given[0]}={options[given[0]]!r}) and set by "
+                         f"--knob {knob}: the knob sweeps it; drop one")
     if any(name in spec.device.fixes(backend) for name in k.fields):
         raise InputError(f"--backend {backend} fixes {k.field}, the field of knob "
                          f"{knob!r}; use --backend {device}")
@@ -165,6 +172,12 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     if k.log and lo <= 0:
         raise InputError(f"knob {knob!r} is swept on a log scale: its range must be > 0 "
                          f"(got {lo!r})")
+    for end in (lo, hi):  # both ends within the field's documented range
+        if k.field == IDLE and not 0 <= end <= MAX_IDLE_S:
+            raise InputError(f"range end {end:g} of {knob!r} is outside 0..{MAX_IDLE_S:g} "
+                             "seconds (100 years idle at most)")
+        if k.field != IDLE:
+            spec.device.given(backend, {**(options or {}), **k.setting(end)})
     grid = knob_grid(k, lo, hi)
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
@@ -180,17 +193,31 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
                             "parts": {p["part"]: p["success_rate"] for p in res["parts"]}})
         return success >= target
 
+    result = {"scenario": scenario, "backend": backend, "backend_options": dict(options or {}),
+              "knob": knob, "field": k.field, "good": k.good, "target": target,
+              "range": [lo, hi], "grid": grid, "seeds": int(seeds),
+              "seed_list": list(range(int(seeds))), "budget": budget, "part": part,
+              "evaluations": evaluations}
     try:
         i, j, _ = bisect(grid, passes)
     except NotBracketedError:
-        ends = ", ".join(f"{e['value']:g}: success {e['success_rate']:.3f}"
-                         for e in evaluations)
-        raise InputError(f"the {knob} range {lo:g}..{hi:g} does not bracket target {target} on "
-                         f"{scenario} ({ends}; the good end, {k.good}, must reach the target "
-                         f"and the other end fall below it)") from None
-    return {"scenario": scenario, "backend": backend, "backend_options": dict(options or {}),
-            "knob": knob, "field": k.field, "good": k.good, "target": target,
-            "value": grid[i], "bracket": [grid[i], grid[j]], "range": [lo, hi],
-            "grid": grid, "seeds": int(seeds), "seed_list": list(range(int(seeds))),
-            "budget": budget, "part": part, "evaluations": evaluations,
+        return {**result, "value": None, "bracket": None, "found": False,
+                "note": no_break_point(k, lo, hi, target, evaluations, value_range is None),
+                "n_evaluations": len(evaluations), "command": command}
+    return {**result, "value": grid[i], "bracket": [grid[i], grid[j]], "found": True,
             "n_evaluations": len(evaluations), "command": command}
+
+
+def no_break_point(knob: Knob, lo: float, hi: float, target: float,
+                   evaluations: list[dict[str, Any]], physical: bool) -> str:
+    """Why a range holds no break point (its two ends do not bracket ``target``): the
+    device meets the target at both ends, at neither, or only at the bad end; with both
+    ends' success. ``physical``: the range is the knob's default."""
+    good, bad = evaluations[0]["success_rate"], evaluations[-1]["success_rate"]
+    where = "the physical range" if physical else "the range"
+    why = ("success is below the target even at the good end" if max(good, bad) < target
+           else "success meets the target across it" if good >= target
+           else "success rises toward the bad end")
+    ends = ", ".join(f"{e['value']:g}: success {e['success_rate']:.3f}" for e in evaluations)
+    return (f"no break point within {where} {lo:g}..{hi:g} of {knob.name} at target "
+            f"{target:g}: {why} ({ends})")

@@ -4,6 +4,7 @@ and it gets out of traps where the paper's planner halts."""
 import numpy as np
 import pytest
 
+from cml_edge.backends import make_array
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.arena import MOVES, GridArena
 from cml_edge.grid.maps import load_map, load_scen, scenario_pairs, shipped_path, step_budget
@@ -111,3 +112,42 @@ def test_escape_at_400_obstacles_beats_the_paper(cml30):
 def test_unknown_planner(cml30):
     with pytest.raises(ValueError, match="unknown planner 'astar'"):
         plan(cml30, GridArena.empty(30), np.array([[0, 0]]), np.array([[3, 3]]), planner="astar")
+
+
+def zeroed(cml, columns):
+    """A copy of the float ``cml`` whose W_v ``columns`` are zero (they read as nothing)."""
+    W_v = cml.W_v.to_float()
+    W_v[:, columns] = 0.0
+    out = CML.create(cml.config, seed=0)
+    for dst, W in zip(out.arrays, (cml.W_q.to_float(), cml.W_k.to_float(), W_v)):
+        dst.state.W[:] = W
+    return out
+
+
+@pytest.mark.parametrize("columns", [[0, 3], list(range(8))], ids=["some", "all"])
+def test_escape_plans_when_columns_of_w_v_read_zero(cml30, columns):
+    cml = zeroed(cml30, columns)
+    arena = GridArena.with_obstacles(30, 250, 7)
+    pairs = draw_pairs(arena, 10, seed=3)
+    ref = plan(cml, arena, pairs.starts, pairs.goals, path="reference", planner="escape")
+    direct = plan(cml, arena, pairs.starts, pairs.goals, path="direct", planner="escape")
+    assert np.array_equal(ref.paths, direct.paths) and np.array_equal(ref.steps, direct.steps)
+    assert (direct.steps > 0).all()
+
+
+@pytest.mark.parametrize("backend, options", [
+    ("crossbar", {"preset": "ideal", "adc_bits": 2}),
+    ("crossbar", {"preset": "pcm", "adc_bits": 3}),
+    ("crossbar", {"preset": "pcm-symmetric", "adc_bits": 2}), ("loihi2", {"num_message_bits": 1})])
+def test_escape_on_coarse_reads(cml30, backend, options):
+    """Reads coarse enough that W_v's columns round to zero: both planners plan, the
+    reference and the compiled loop agree."""
+    W = cml30.weights()
+    cml = CML(cml30.config, tuple(make_array(backend, W[n], seed=0, index=i, **options)
+                                  for i, n in enumerate(("W_q", "W_k", "W_v"))), backend)
+    arena = GridArena.with_obstacles(30, 250, 7)
+    pairs = draw_pairs(arena, 6, seed=3)
+    for planner in ("paper", "escape"):
+        ref = plan(cml, arena, pairs.starts, pairs.goals, path="reference", planner=planner)
+        direct = plan(cml, arena, pairs.starts, pairs.goals, path="direct", planner=planner)
+        assert np.array_equal(ref.paths, direct.paths), planner

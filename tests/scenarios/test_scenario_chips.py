@@ -96,9 +96,13 @@ def test_bad_input(kw, message):
 
 def test_the_cli(cli, tmp_path):
     code, out, err = cli("scenario", "paper", "--seeds", 1, "--budget", "tiny", "--workers", 1,
-                         "--chips", 2, "--first-chip", 3, "--out", tmp_path / "s")
+                         "--chips", 2, "--first-chip", 3, "--out", tmp_path / "f")
+    assert code == 2 and "no device-to-device variation" in err  # float chips are one chip
+    code, out, err = cli("scenario", "paper", "--backend", "int8", "--seeds", 1, "--budget",
+                         "tiny", "--workers", 1, "--chips", 2, "--first-chip", 3, "--out",
+                         tmp_path / "s")
     assert code == 0, err
-    assert out.startswith("paper on float: 1 seed x 2 chips, tiny budget\n")
+    assert out.startswith("paper on int8: 1 seed x 2 chips, tiny budget\n")
     assert re.search(r"^paper: yield [01]\.\d{3} \(success >= 0\.95\) over 2 chips; success "
                      r"mean [\d.]+, p05 [\d.]+, median [\d.]+, p95 [\d.]+$", out, re.M), out
     data = json.loads((tmp_path / "s" / "results.json").read_text())

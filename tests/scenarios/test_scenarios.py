@@ -2,6 +2,7 @@
 the sweep engine (pool, resume), bad input, and the bisection."""
 
 import json
+import re
 
 import pytest
 
@@ -174,8 +175,10 @@ def test_a_real_break_point_and_a_range_that_does_not_bracket():
     values = {e["value"]: e["success_rate"] for e in r["evaluations"]}
     assert values[lo] >= 0.9 > values[hi]
     assert r["evaluations"][0]["value"] == 0.0 and r["n_evaluations"] <= 6
-    with pytest.raises(InputError, match=r"does not bracket.*0: success.*0\.001: success"):
-        find_breakpoint("paper", "crossbar", "read_noise", value_range=(0.0, 0.001), **kw)
+    none = find_breakpoint("paper", "crossbar", "read_noise", value_range=(0.0, 0.001), **kw)
+    assert none["value"] is None and not none["found"]
+    assert re.search(r"no break point within the range.*0: success.*0\.001: success",
+                     none["note"])
     with pytest.raises(InputError, match="at least 2 seeds"):
         find_breakpoint("paper", "crossbar", "read_noise", **{**kw, "seeds": 1})
 

@@ -2,7 +2,14 @@
 
 from cml_edge.backends.crossbar import kernels
 from cml_edge.backends.crossbar.array import CrossbarArray, CrossbarState
-from cml_edge.backends.crossbar.config import ANALOG, DEFAULT_PRESET, KNOBS, PRESETS, DeviceConfig
+from cml_edge.backends.crossbar.config import (
+    ANALOG,
+    DEFAULT_PRESET,
+    KNOBS,
+    PRESETS,
+    DeviceConfig,
+    draws,
+)
 from cml_edge.backends.device import Backend, DeviceSpec, Report
 from cml_edge.backends.dispatch import Kernels
 
@@ -21,6 +28,7 @@ DEVICE = DeviceSpec(
     presets=PRESETS,
     knobs=KNOBS,
     cost=ANALOG,
+    draws=draws,
     report=Report(
         systems=("crossbar",),  # every preset
         sweeps=(*[("levels", (f"pcm {n} levels", "crossbar", {"preset": "pcm", "levels": n}))

@@ -75,8 +75,10 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.backends.device import CostModel, Knob
 from cml_edge.backends.fields import (
+    check_ranges,
     check_types,
     matrix_value,
     option,
@@ -94,28 +96,46 @@ C2C_MODELS = ("mult", "add", "complex")
 COMPENSATION_READS = ("ideal", "periphery")
 DEFAULT_PRESET = "pcm"
 
+# the reasons of the fields' ranges (fields.option): from the physics or the arithmetic
+G_US = "a conductance in uS, up to 10 mS (a 100-ohm device is a short)"
+LEVELS = ("0 = continuous, else 2..4096: the most levels shown in one analog device is 2048 "
+          "(Rao et al., Nature 2023)")
+W_MAX = ("weight units; 0 = automatic, else >= 1e-3 (the CML's learned weights are ~1e-3 "
+         "and more: a smaller swing clips them all)")
+EXP_Z = "z = 2 a (u - c) + b within +-30 and gamma <= 20 keep e^(gamma z) finite"
+BITS = "0 = ideal, else 2..24 bits (no converter resolves more)"
+NU = "a drift exponent (PCM measures 0.005..0.1)"
+FRACTION = "a fraction of the conductance range"
+REL_STD = "a relative std"
+W_MAX_MIN = 1e-3
+
 
 @dataclass(frozen=True)
 class DeviceConfig:
     """The devices and periphery of one crossbar (units: micro-siemens, seconds)."""
 
     # conductance range and the weight-to-conductance scale ---------------------------
-    g_min: float = 0.0
+    g_min: float = option(0.0, lo=0.0, hi=10000, why=G_US)
     """Lowest device conductance (uS)."""
-    g_max: float = 25.0
+    g_max: float = option(25.0, lo=0.001, hi=10000, why=G_US)
     """Highest device conductance (uS)."""
     levels: int = option(0, flag="--levels", metavar="N",
-                         help="crossbar conductance levels per device (>= 2; 0 = continuous)")
+                         help="crossbar conductance levels per device (>= 2; 0 = continuous)",
+                         lo=0, hi=4096, why=LEVELS)
     """Programmable states per device, evenly spaced on [g_min, g_max]; 0 = continuous.
     One pulse moves a device by one level: dw_min = 2 w_max / (levels - 1)."""
-    w_headroom: float = option(1.0, kernel=False)
+    w_headroom: float = option(1.0, kernel=False,
+                               lo=0.01, hi=100.0, why="a multiple of the matrix's max|W|")
     """Automatic scale: w_max = w_headroom x max|W| of the matrix programmed (aihwkit maps
     max|W| to g_max: headroom 1). Weights that later grow past w_max clip at the bounds."""
-    w_max_q: float = option(0.0, per_matrix=("w_max", 0))
+    w_max_q: float = option(0.0, per_matrix=("w_max", 0),
+                            lo=0.0, hi=100.0, why=W_MAX)
     """Weight of a full conductance swing for W_q (index 0); 0 = automatic (w_headroom)."""
-    w_max_k: float = option(0.0, per_matrix=("w_max", 1))
+    w_max_k: float = option(0.0, per_matrix=("w_max", 1),
+                            lo=0.0, hi=100.0, why=W_MAX)
     """The same for W_k (index 1)."""
-    w_max_v: float = option(0.0, per_matrix=("w_max", 2))
+    w_max_v: float = option(0.0, per_matrix=("w_max", 2),
+                            lo=0.0, hi=100.0, why=W_MAX)
     """The same for W_v (index 2). The CML's learned W_v is far smaller than its
     N(0, 0.1^2) init (W_v a learns W_q delta), so the device presets set 0.02: resolution
     where the learned weights live; the init is clipped at programming (the sizes
@@ -132,52 +152,59 @@ class DeviceConfig:
     remainder kept in the accumulator (mixed precision, Nandakumar et al. 2020); or
     ``program``: write-verify of each pair whose target moved (by n levels, or by acc
     exactly when continuous) with fresh programming noise."""
-    bl_max: int = 31
+    bl_max: int = option(31, lo=1, hi=31,
+                         why="stochastic pulse trains of at most 31 (Gokmen & Vlasov 2016)")
     """Longest stochastic pulse train (BL <= 31, Gokmen & Vlasov 2016)."""
-    dw_min_dtod: float = 0.0
+    dw_min_dtod: float = option(0.0, lo=0.0, hi=1.0, why="a relative std (aihwkit ReRAM 0.3)")
     """Device-to-device spread of the pulse step (relative std, fixed per device)."""
-    dw_min_std: float = 0.0
+    dw_min_std: float = option(0.0, lo=0.0, hi=10.0,
+                               why="a relative std of a step (ReRAM's measured 3.75)")
     """Cycle-to-cycle spread of the pulse step (relative std, fresh per pulse)."""
-    up_down: float = 0.0
+    up_down: float = option(0.0, lo=-0.999, hi=0.999,
+                            why="up steps x (1 + a), down steps x (1 - a): |a| < 1")
     """Mean up/down asymmetry: up steps x (1 + a), down steps x (1 - a)."""
-    up_down_dtod: float = 0.0
+    up_down_dtod: float = option(0.0, lo=0.0, hi=1.0, why="a std of the asymmetry a")
     """Device-to-device spread of the asymmetry a (std)."""
     bounds: str = option("hard", choices=BOUNDS)
     """``hard``: a device clips at g_min / g_max; ``soft``: the step shrinks linearly to
     zero at the bound it moves toward (1 at mid-range)."""
 
     # programming noise ---------------------------------------------------------------
-    prog_noise: float = 0.0
+    prog_noise: float = option(0.0, lo=0.0, hi=100.0,
+                               why="a scale of the measured model (1 = as measured)")
     """Scale of the programming-noise model (aihwkit ``prog_noise_scale``); 0 = none."""
-    prog_c0: float = 0.26348
+    prog_c0: float = option(0.26348, lo=-1000.0, hi=1000.0, why="polynomial coefficients in uS")
     """Programming-noise polynomial c0 (uS at g_ref); see cml_edge.backends.crossbar.conductance."""
-    prog_c1: float = 1.9650
+    prog_c1: float = option(1.9650, lo=-1000.0, hi=1000.0, why="polynomial coefficients in uS")
     """c1 (uS at g_ref, per unit G/g_max)."""
-    prog_c2: float = -1.1731
+    prog_c2: float = option(-1.1731, lo=-1000.0, hi=1000.0, why="polynomial coefficients in uS")
     """c2 (uS at g_ref, per unit (G/g_max)^2)."""
-    prog_gref: float = 25.0
+    prog_gref: float = option(25.0, lo=0.001, hi=10000, why=G_US)
     """The g_max the coefficients were fitted at (uS)."""
 
     # reads ---------------------------------------------------------------------------
-    read_noise: float = 0.0
+    read_noise: float = option(0.0, lo=0.0, hi=1.0,
+                               why="a std as a fraction of the conductance range")
     """Conductance fluctuation of each device at each read, std relative to
     g_max - g_min (fresh on every W x and W^T y)."""
-    out_noise: float = 0.0
+    out_noise: float = option(0.0, lo=0.0, hi=10.0,
+                              why="a std in normalised output units (the ADC's bound is 12)")
     """Additive noise at each output before the ADC, std in normalised units
     (aihwkit ``out_noise``; fresh on every read)."""
-    dac_bits: int = 0
+    dac_bits: int = option(0, lo=0, hi=24, why=BITS)
     """DAC bits on inputs scaled by max|x| (0 = ideal)."""
-    adc_bits: int = 0
+    adc_bits: int = option(0, lo=0, hi=24, why=BITS)
     """ADC bits on outputs (0 = ideal)."""
-    adc_bound: float = 12.0
+    adc_bound: float = option(12.0, lo=0.001, hi=1000.0, why="normalised output units (aihwkit 12)")
     """ADC range, normalised units (aihwkit ``out_bound``)."""
 
     # drift ---------------------------------------------------------------------------
-    drift_nu: float = 0.0
+    drift_nu: float = option(0.0, lo=0.0, hi=1.0, why="a drift exponent (PCM measures 0.005..0.1)")
     """Mean drift exponent: G(t) = G0 ((t + t0) / t0)^-nu, t since the device's last write."""
-    drift_nu_std: float = 0.0
+    drift_nu_std: float = option(0.0, lo=0.0, hi=1.0, why="a drift exponent's std")
     """Device-to-device std of nu (fixed per device, clipped at 0)."""
-    drift_t0: float = 20.0
+    drift_t0: float = option(20.0, lo=1e-06, hi=MAX_IDLE_S,
+                             why="seconds, within the longest idle time (MAX_IDLE_S)")
     """Drift reference time t0 (s)."""
     drift_compensation: bool = False
     """Global drift compensation: one output scale per array, from a calibration read
@@ -206,11 +233,11 @@ class DeviceConfig:
     write-verified onto the device that was larger (programming noise). Counted:
     ``refreshes`` and ``refresh_pulses`` (two RESETs plus the SET pulses of the mean
     device from g_min to the target)."""
-    refresh_upper: float = 0.75
+    refresh_upper: float = option(0.75, lo=0.001, hi=0.999, why=FRACTION)
     """Refresh threshold of the larger device, fraction of the range (aihwkit 0.75)."""
-    refresh_lower: float = 0.25
+    refresh_lower: float = option(0.25, lo=0.001, hi=0.999, why=FRACTION)
     """Refresh threshold of the smaller device, fraction of the range (aihwkit 0.25)."""
-    pulse_gain: float = 1.0
+    pulse_gain: float = option(1.0, lo=0.01, hi=100.0, why="a pulse's mean step in units of dG")
     """The conductance change per pulse the update controller assumes, in units of dG
     (it sets dw_min, the weight a pulse is counted as). 1 = the level spacing (earlier
     releases). A device whose real steps differ from dG (``step_model``) is calibrated
@@ -229,27 +256,29 @@ class DeviceConfig:
     ((hi - G) / (hi - lo))^pow_gamma up, ((G - lo) / (hi - lo))^pow_gamma down.
     lo / hi are the device's own bounds (``bound_dtod_*``), G0 = lo + step_center
     (hi - lo) its weight zero."""
-    step_center: float = 0.5
+    step_center: float = option(0.5, lo=0.0, hi=0.999, why=FRACTION)
     """Where the device's weight zero G0 sits in its range (fraction): aihwkit's
     -w_min / (w_max - w_min): 0.5 symmetric, 0.375 for ReRAM (w in -0.75..1.25), 0 for
     PCM (w in 0..2)."""
-    gamma_up: float = 1.0
+    gamma_up: float = option(1.0, lo=0.0, hi=100.0, why="a slope of the step against G")
     """``linear`` step: slope of the up step against G (aihwkit ``gamma_up``)."""
-    gamma_down: float = 1.0
+    gamma_down: float = option(1.0, lo=0.0, hi=100.0, why="a slope of the step against G")
     """``linear`` step: slope of the down step (aihwkit ``gamma_down``)."""
-    exp_a: float = 0.244
+    exp_a: float = option(0.244, lo=-10.0, hi=10.0, why=EXP_Z)
     """``exp`` step: a (aihwkit ``ExpStepDevice`` default 0.244)."""
-    exp_b: float = 0.2425
+    exp_b: float = option(0.2425, lo=-10.0, hi=10.0, why=EXP_Z)
     """``exp`` step: b (default 0.2425)."""
-    exp_a_up: float = 0.00081
+    exp_a_up: float = option(0.00081, lo=-1000.0, hi=1000.0,
+                             why="a step prefactor (aihwkit PCM -27.235)")
     """``exp`` step: A_up (default 0.00081)."""
-    exp_a_down: float = 0.36833
+    exp_a_down: float = option(0.36833, lo=-1000.0, hi=1000.0,
+                               why="a step prefactor (aihwkit PCM -2.235)")
     """``exp`` step: A_down (default 0.36833)."""
-    exp_gamma_up: float = 12.44625
+    exp_gamma_up: float = option(12.44625, lo=0.0, hi=20.0, why=EXP_Z)
     """``exp`` step: gamma_up (default 12.44625)."""
-    exp_gamma_down: float = 12.78785
+    exp_gamma_down: float = option(12.78785, lo=0.0, hi=20.0, why=EXP_Z)
     """``exp`` step: gamma_down (default 12.78785)."""
-    pow_gamma: float = 1.0
+    pow_gamma: float = option(1.0, lo=0.001, hi=10.0, why="an exponent of the step's shape")
     """``pow`` step: the exponent (aihwkit ``PowStepDevice`` pow_gamma 1.0)."""
     c2c: str = option("mult", choices=C2C_MODELS)
     """Cycle-to-cycle noise of a step (std ``dw_min_std``, z fresh per pulse):
@@ -259,26 +288,27 @@ class DeviceConfig:
     step + dw_min_std (|step| + c2c_add (g_max - g_min) + c2c_slope |G - G0|) z. A SET
     pulse of a ``set_only`` device never lowers G: its step is log-normal with the same
     mean and std (aihwkit's Gaussian lets a SET pulse lower G)."""
-    c2c_add: float = 0.0
+    c2c_add: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
     """``complex`` c2c: constant term, fraction of the range (aihwkit dw_min_std_add
     0.042 of a 2-wide range: 0.021)."""
-    c2c_slope: float = 0.0
+    c2c_slope: float = option(0.0, lo=0.0, hi=10.0, why="a std per unit |G - G0| (aihwkit 0.108)")
     """``complex`` c2c: term proportional to |G - G0| (aihwkit dw_min_std_slope 0.108)."""
-    write_noise: float = 0.0
+    write_noise: float = option(0.0, lo=0.0, hi=1000.0, why="a std in units of dG (ReRAM 56)")
     """Write noise (aihwkit ``write_noise_std``), std in units of dG: a pulsed device reads
     as its hidden state plus N(0, (write_noise dG)^2), redrawn at each pulse (the hidden
     state is what the pulses move)."""
-    bound_dtod_up: float = 0.0
+    bound_dtod_up: float = option(0.0, lo=0.0, hi=1.0, why=REL_STD)
     """Device-to-device spread of the upper bound: hi = G0 + (g_max - G0)(1 + d z),
     relative std (aihwkit ``w_max_dtod``), clipped to [G0, g_max]; drawn per device
     after the programming noise."""
-    bound_dtod_down: float = 0.0
+    bound_dtod_down: float = option(0.0, lo=0.0, hi=1.0, why=REL_STD)
     """The same for the lower bound lo = G0 - (G0 - g_min)(1 + d z) (``w_min_dtod``)."""
-    read_noise_pcm: float = 0.0
+    read_noise_pcm: float = option(0.0, lo=0.0, hi=1.0, why="a std per unit of the weighted input")
     """Per-read weight noise of the PCM_READ form (aihwkit ``w_noise`` with
     ``w_noise_type=PCMRead``): each normalised output gets N(0, read_noise_pcm^2
     sum_j |w_ij| x_j^2), |w_ij| = |G+ - G-| / range, fresh on every read."""
-    rn1f: float = 0.0
+    rn1f: float = option(0.0, lo=0.0, hi=100.0,
+                         why="a scale of the measured model (1 = as measured)")
     """Scale of the accumulated 1/f read noise (aihwkit ``PCMLikeNoiseModel``
     read_noise_scale); 0 = off. When time is let pass (``elapse``, including 0 s), each
     device gets one persistent draw, on its drifted conductance G:
@@ -287,13 +317,13 @@ class DeviceConfig:
     programmed (aihwkit: q_s of g_prog), t its age; the draw replaces the
     previous one and every read until the next ``elapse`` sees it (aihwkit draws it once
     per ``drift_weights(t)``). Devices written since the last ``elapse`` start clean."""
-    rn1f_q0: float = 0.0088
+    rn1f_q0: float = option(0.0088, lo=0.0, hi=1.0, why=REL_STD)
     """q_s numerator (aihwkit 0.0088)."""
-    rn1f_qexp: float = 0.65
+    rn1f_qexp: float = option(0.65, lo=0.0, hi=10.0, why="an exponent")
     """q_s exponent (aihwkit 0.65)."""
-    rn1f_qmax: float = 0.2
+    rn1f_qmax: float = option(0.2, lo=0.0, hi=1.0, why=REL_STD)
     """q_s cap (aihwkit 0.2)."""
-    rn1f_t_read: float = 250e-9
+    rn1f_t_read: float = option(250e-9, lo=1e-12, hi=1.0, why="seconds: a read pulse's width")
     """Read pulse width t_read (s; aihwkit 250 ns)."""
     drift_nu_g: bool = False
     """Conductance-dependent drift exponent (aihwkit ``generate_drift_coefficients``):
@@ -301,21 +331,21 @@ class DeviceConfig:
     ln g + nu_sb, nu_slo, nu_shi), g = max(G / g_max, 1e-7), z the device's fixed normal;
     G is the conductance the device was last written to (read at the first ``elapse``
     after the write). Off: nu = max(drift_nu + drift_nu_std z, 0)."""
-    nu_a: float = -0.0155
+    nu_a: float = option(-0.0155, lo=-1.0, hi=1.0, why=NU)
     """Slope of mu(ln g) (aihwkit -0.0155)."""
-    nu_b: float = 0.0244
+    nu_b: float = option(0.0244, lo=-1.0, hi=1.0, why=NU)
     """Intercept of mu (0.0244)."""
-    nu_lo: float = 0.049
+    nu_lo: float = option(0.049, lo=0.0, hi=1.0, why=NU)
     """mu's lower clip (0.049)."""
-    nu_hi: float = 0.1
+    nu_hi: float = option(0.1, lo=0.0, hi=1.0, why=NU)
     """mu's upper clip (0.1)."""
-    nu_sa: float = -0.0125
+    nu_sa: float = option(-0.0125, lo=-1.0, hi=1.0, why=NU)
     """Slope of sd(ln g) (-0.0125)."""
-    nu_sb: float = -0.0059
+    nu_sb: float = option(-0.0059, lo=-1.0, hi=1.0, why=NU)
     """Intercept of sd (-0.0059)."""
-    nu_slo: float = 0.008
+    nu_slo: float = option(0.008, lo=0.0, hi=1.0, why=NU)
     """sd's lower clip (0.008)."""
-    nu_shi: float = 0.045
+    nu_shi: float = option(0.045, lo=0.0, hi=1.0, why=NU)
     """sd's upper clip (0.045)."""
     compensation_read: str = option("ideal", choices=COMPENSATION_READS)
     """How drift compensation reads the array: ``ideal`` (earlier releases) sum |G+ - G-|
@@ -328,14 +358,14 @@ class DeviceConfig:
     reads): a read with an output at the ADC bound is repeated with the input halved,
     up to ``bm_passes`` passes in all, each with fresh noise; the last is kept.
     Counted as ``bm_rereads`` (their MACs and conversions in the usual counters)."""
-    bm_passes: int = 5
+    bm_passes: int = option(5, lo=1, hi=16, why="halvings of the input: 16 passes reach 2^-15")
     """Most passes of a managed read: aihwkit's limit max_bm_res / inp_res = 0.25 / (2 /
     126) admits reductions 1, 2, 4, 8, 16: 5 passes."""
 
     # faults --------------------------------------------------------------------------
-    stuck_low: float = 0.0
+    stuck_low: float = option(0.0, lo=0.0, hi=1.0, why="a fraction of the devices")
     """Fraction of devices stuck at g_min (chosen from the seed)."""
-    stuck_high: float = 0.0
+    stuck_high: float = option(0.0, lo=0.0, hi=1.0, why="a fraction of the devices")
     """Fraction of devices stuck at g_max."""
 
     def __post_init__(self) -> None:
@@ -444,6 +474,11 @@ def _validate(c: DeviceConfig) -> None:
         if getattr(c, name) <= 0:
             raise InputError(f"crossbar {name} {getattr(c, name)!r} is not allowed "
                              "(allowed: a number > 0)")
+    check_ranges(c, "crossbar ")
+    for name in ("w_max_q", "w_max_k", "w_max_v"):
+        if 0 < getattr(c, name) < W_MAX_MIN:
+            raise InputError(f"crossbar {name} {getattr(c, name)!r} is outside its range "
+                             f"0 or {W_MAX_MIN:g}..100 ({W_MAX})")
 
 
 PCM_PULSE_GAIN = 3.2
@@ -514,6 +549,22 @@ KNOBS = (
 )
 """What a break point can sweep on the crossbar (``cml-edge scenario breakpoint --knob``;
 the idle ``drift_time`` applies to every device)."""
+
+RANDOM_FIELDS = ("stuck_low", "stuck_high", "dw_min_dtod", "up_down_dtod", "bound_dtod_up",
+                 "bound_dtod_down", "drift_nu_std", "prog_noise", "dw_min_std", "write_noise",
+                 "read_noise", "out_noise", "read_noise_pcm", "rn1f", "c2c_add", "c2c_slope")
+"""The fields whose devices draw from the array's stream when nonzero: manufacture
+(stuck devices, device-to-device spreads, drift exponents, programming noise) and
+cycle to cycle (pulse, write and read noise)."""
+
+
+def draws(config: DeviceConfig) -> bool:
+    """Whether an array of ``config`` draws from its device stream (so chips differ): a
+    random field is on, updates are pulsed (stochastic coincidences) or rounded to a grid
+    of levels, or the drift exponent depends on the conductance (its spread)."""
+    return (any(getattr(config, name) != 0 for name in RANDOM_FIELDS)
+            or config.update == "pulsed" or config.levels >= 2 or config.drift_nu_g)
+
 
 ANALOG = CostModel("analog", "analog_mac", ("analog_macs",), pulse="write_pulse",
                    pulse_counters=("device_pulses", "refresh_pulses"))

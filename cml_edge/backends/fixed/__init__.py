@@ -17,6 +17,7 @@ DEVICE = DeviceSpec(
     presets=PRESETS,
     knobs=KNOBS,
     cost=cost_model,
+    draws=lambda config: config.rounding == "stochastic",  # its rounding draws
     report=Report(
         systems=("int16", "int8"),
         # the precision sweep: mantissa bits, with and without stochastic rounding

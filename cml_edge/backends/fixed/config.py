@@ -22,7 +22,9 @@ from cml_edge.backends.fields import option, resolve
 from cml_edge.backends.fixed.kernels import NEURON_BITS
 from cml_edge.backends.params import build_record, kernel_record
 from cml_edge.backends.quant import (
+    MAX_BITS,
     MAX_EXPONENT,
+    MIN_BITS,
     ROUNDINGS,
     check_bits,
     check_int,
@@ -38,7 +40,9 @@ class FixedConfig:
 
     bits: int = option(8, flag="--bits", metavar="N",
                        help="weight mantissa bits 2..16 (backend fixed; default 8; int8/int16 "
-                            "fix it)")
+                            "fix it)",
+                            lo=MIN_BITS, hi=MAX_BITS,
+                            why="a symmetric mantissa: 2 bits is the least with a nonzero weight")
     """Weight mantissa width, 2..16 bits, symmetric (qmax = 2^(bits-1) - 1, so that
     negating a weight is exact). Default 8: Loihi's synaptic weights are at most 8 bits;
     ``int8`` and ``int16`` fix it."""
@@ -50,34 +54,42 @@ class FixedConfig:
     independent draw per cell; Lava shares one draw per epoch). Default stochastic:
     round-to-nearest stalls once updates fall below half an LSB."""
     act_bits: int = option(8, flag="--act-bits", metavar="N",
-                           help="activation bits 2..16, one exponent per vector (default 8)")
+                           help="activation bits 2..16, one exponent per vector (default 8)",
+                           lo=MIN_BITS, hi=MAX_BITS, why="as the weights' mantissa")
     """Bits of the activations (inputs of a read, factors of an update), each vector
     quantised with its own power-of-two exponent (nearest, ties to even). Default 8, the
     width of Loihi's graded spikes."""
     acc_bits: int = option(32, flag="--acc-bits", metavar="N",
-                           help="learning accumulator bits, bits+1..32 (default 32)")
+                           help="learning accumulator bits, bits+1..32 (default 32)",
+                           lo=MIN_BITS + 1, hi=32,
+                           why="bits + 1 (one fraction bit) .. 32 (a 32-bit register)")
     """Width of the per-walk learning accumulator, bits+1..32, which keeps
     F = acc_bits - bits - 1 fractional bits below the weight's LSB (23 at int8; its
     integer part holds twice the weight range). Default 32, one rounding per commit;
     Loihi's 16 bits round twice (measured against 32 in docs/devices/fixed.md)."""
     mac_bits: int = option(32, flag="--mac-bits", metavar="N",
-                           help="read accumulator bits 16..64 (default 32)")
+                           help="read accumulator bits 16..64 (default 32)",
+                           lo=16, hi=64, why="16..64 (an int64 sum)")
     """Width of the read (multiply-accumulate) accumulator, 16..64. Default 32: at the
     CML's shapes no int8 or int16 read can overflow it (the bound is checked when an
     array is built; where it could overflow, each sum is saturated and counted)."""
     lr_bits: int = option(4, flag="--lr-bits", metavar="N",
-                          help="learning-rate mantissa bits 1..16 (default 4, as Lava)")
+                          help="learning-rate mantissa bits 1..16 (default 4, as Lava)",
+                          lo=1, hi=16, why="a mantissa of 1..16 bits")
     """Mantissa bits of the learning rate, 1..16 (lr ~ m 2^e). Default 4, Lava's:
     0.001 becomes 8 x 2^-13 = 0.000977."""
     weight_exp: int | tuple[int, ...] | None = option(
         None, flag="--weight-exp", metavar="E", per_matrix="each", noun="exponents",
         help="fix the exponent: one for all matrices or three (W_q W_k W_v) (default: the "
-             "finest that holds the initial weights)")
+             "finest that holds the initial weights)",
+             lo=-MAX_EXPONENT, hi=MAX_EXPONENT, why="2^+-60 stays within an int64 shift")
     """The weights' power-of-two exponent (W = mantissa x 2^e), one for every matrix or
     one per matrix [W_q, W_k, W_v], each within +-60. Default None: the finest exponent
     that holds the initial max|W| (Lava's ``optimize_weight_bits``), plus ``headroom``."""
     headroom: int = option(0, flag="--headroom", metavar="H", kernel=False,
-                           help="extra exponent bits above the initial range (default 0)")
+                           help="extra exponent bits above the initial range (default 0)",
+                           lo=0, hi=16,
+                           why="each bit halves the resolution: 16 leaves none at 16 bits")
     """Extra exponent bits above the initial range, 0..16, room for weights to grow.
     Default 0: training grows max|W| by little and a saturated cell is counted, while
     each bit of headroom halves the resolution."""

@@ -16,6 +16,7 @@ DEVICE = DeviceSpec(
     presets=PRESETS,
     knobs=KNOBS,
     cost=COST,
+    draws=True,  # the write-back's stochastic rounding
     report=Report(systems=("loihi2",), breakpoints=(("loihi2", ("bits",)),)),
 )
 

@@ -43,14 +43,16 @@ class Loihi2Config:
 
     num_message_bits: int = option(
         24, flag="--message-bits", metavar="N",
-        help="graded-spike payload bits 1..24 (loihi2; default 24)")
+        help="graded-spike payload bits 1..24 (loihi2; default 24)",
+        lo=1, hi=MAX_MESSAGE_BITS, why="Lava's graded spikes carry up to 24 bits")
     """Bits of a graded spike's integer payload, 1..24 (Lava ``num_message_bits``).
     Payloads are signed two's complement (Lava's ``OutputVec`` sign-extends 24-bit
     payloads), used symmetrically: |payload| <= 2^(N-1) - 1, so 1 bit carries only zero.
     Default 24, what Lava's graded networks use."""
     num_weight_bits: int | None = option(
         None, flag="--weight-bits", metavar="N", kernel=False,
-        help="weight bits 1..8 (loihi2; default: what optimize_weight_bits gives)")
+        help="weight bits 1..8 (loihi2; default: what optimize_weight_bits gives)",
+        lo=1, hi=8, why="Lava: W_WEIGHTS_U = 8")
     """Weight bits, 1..8 (Lava ``num_weight_bits``): the programmed weights are
     ``truncate_weights(W, sign_mode, num_weight_bits)``. Default None: what
     ``optimize_weight_bits`` gives for the matrix (8 for generic weights; for an
@@ -58,7 +60,8 @@ class Loihi2Config:
     weight_exp: int | tuple[int, ...] | None = option(
         None, flag="--weight-exp", per_matrix="each", noun="exponents",
         help="weight exponent -8..7, one or three (W_q W_k W_v) (loihi2: default "
-             "optimize_weight_bits')")
+             "optimize_weight_bits')",
+        lo=MIN_WEIGHT_EXP, hi=MAX_WEIGHT_EXP, why="nengo-loihi's synapse scale 2^(6 + weight_exp)")
     """The weight exponent, -8..7 (Lava ``weight_exp``): a read's sum is shifted by it
     (``Dense``: right by -weight_exp, floor) before the neuron scales it by 2^6, so the
     weights count 2^(6 + weight_exp) in the neuron's 24-bit input. One value or one per
@@ -66,7 +69,8 @@ class Loihi2Config:
     generic mixed matrix). Fixing it keeps the integers and moves the float scale with it
     (the read's unit)."""
     scale_exp: int | tuple[int, ...] | None = option(
-        None, per_matrix="each", noun="exponents", kernel=False)
+        None, per_matrix="each", noun="exponents", kernel=False,
+        lo=-SCALE_LIMIT, hi=SCALE_LIMIT, why="2^+-1000 is still a float64 scale")
     """The float scale: a weight w stands for w 2^(weight_exp - scale_exp). Default None:
     the largest power of two that puts rint(W 2^S) in Lava's standard 8-bit range
     (``lava.float_scale``), then scale_exp = S + weight_exp - (``optimize_weight_bits``'
@@ -81,7 +85,8 @@ class Loihi2Config:
     matrices are mixed; the other modes clip the weights of the wrong sign to zero
     (counted), as Lava's ``clip_weights`` does. Default mixed."""
     t_epoch: int = option(1, flag="--t-epoch", metavar="T",
-                          help="learning epoch in in-place updates, 1..63 (loihi2; default 1)")
+                          help="learning epoch in in-place updates, 1..63 (loihi2; default 1)",
+                          lo=1, hi=MAX_T_EPOCH, why="Lava: W_EPOCH_TIME = 6 bits")
     """The learning epoch, 1..63 time steps (Lava ``LoihiLearningRule(t_epoch=...)``;
     6-bit on the chip): with the per-step schedule (updates not deferred) the weights are
     written back every ``t_epoch`` updates; 1 = every step. The per-walk schedule is one

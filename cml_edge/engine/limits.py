@@ -1,0 +1,145 @@
+"""What a run will cost, from its sizes, before any work: memory and time.
+
+:func:`estimate` reads a command's sizes (arena cells, seeds, chips, walks x steps,
+trials x the step budget, devices) and prices them with per-unit costs measured on this
+code; :func:`check` refuses a run whose memory would exceed the machine's (InputError:
+one line naming the option that dominates and the estimate) and returns, for a large but
+feasible run, the line to print on stderr before going on.
+
+How the costs were measured (Python 3.11, the 2-core development machine, kernels
+compiled), each a peak of ``tracemalloc`` over a run of N units divided by N, or a
+median time per unit:
+
+- :data:`TASK_BYTES`: ``scenario_tasks("paper", "crossbar", {"preset": "pcm"}, 1,
+  chips=range(20000))`` peaks at 3.7 kB per task; a run keeps each task's result record
+  as well (a few kB of JSON-able numbers): 8 kB per task;
+- :data:`TRAIN_STEP_S`, :data:`PLAN_STEP_S`: the slowest device's training and
+  planning step through the compiled loops, 10 us (``cml-edge bench``;
+  benchmarks/README.md: crossbar pcm 7.3 us a training step, 10.1 us a planning step);
+- :data:`PATH_BYTES`: a plan keeps its visited cells, two int64 per step
+  (:class:`cml_edge.grid.planning.PlanResult`), and the fidelity twin's as many: 32 bytes
+  per trial and step;
+- :data:`CELL_BYTES`: an arena cell's arrays, counted rather than measured (the
+  obstacles, the escape planner's visited map and values, the pair draws' distances:
+  about 20 bytes), with room for the copies a run makes: 64 bytes;
+- :data:`DEVICE_BYTES`, :data:`DEVICE_S`: ``characterize("pcm", devices=200000)`` peaks
+  at 944 bytes per device (a column of devices per target and time, with its twin) and
+  took 640 us per device on a core shared with two other jobs;
+- :data:`BASE_BYTES`: the interpreter, NumPy and Numba with their kernels loaded, 400 MB.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+from cml_edge.errors import InputError
+
+TASK_BYTES = 8e3
+TRAIN_STEP_S = 10e-6
+PLAN_STEP_S = 10e-6
+PATH_BYTES = 32.0
+CELL_BYTES = 64.0
+DEVICE_BYTES = 1e3
+DEVICE_S = 640e-6
+BASE_BYTES = 400e6
+LOUD_S = 600.0
+"""A run estimated to take longer prints its estimate on stderr."""
+PLAN_BUDGET = 100  # the planning step budget when none is given (grid/planning.py)
+DEFAULT_WALKS, DEFAULT_STEPS = 100, 900  # the paper's exploration
+
+
+def total_memory() -> int:
+    """The machine's memory in bytes (``os.sysconf``; /proc/meminfo where that fails)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemTotal:"):
+                    return int(line.split()[1]) * 1024
+    raise OSError("cannot read the machine's memory")
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A run's memory (bytes) and time (seconds on ``workers`` cores); ``terms``: each
+    option's share of the memory, (option as typed, bytes), largest first."""
+
+    memory: float
+    seconds: float
+    terms: tuple[tuple[str, float], ...]
+    workers: int = 1
+
+    def text(self) -> str:
+        return (f"~{size_text(self.memory)} of memory, ~{time_text(self.seconds)} on "
+                f"{self.workers} {'core' if self.workers == 1 else 'cores'}")
+
+
+def size_text(n: float) -> str:
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n / 1e3:.3g} kB"
+
+
+def time_text(s: float) -> str:
+    for unit, scale in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if s >= scale:
+            return f"{s / scale:.3g} {unit}"
+    return f"{s:.2g} s"
+
+
+def _get(args: Any, name: str, default: float = 1) -> float:
+    value = getattr(args, name, None)
+    return default if value is None else float(value)
+
+
+def estimate(args: Any) -> Estimate:
+    """The estimate of the command ``args`` (an argparse namespace) from its sizes: any
+    of ``seeds``, ``chips``, ``walks``, ``steps``, ``trials``, ``max_steps``, ``arena``
+    and ``devices`` it has (a missing size counts 1, or its default; a scenario or sweep
+    trains the paper's 100 walks x 900 steps a model)."""
+    seeds, chips = _get(args, "seeds"), _get(args, "chips")
+    models = seeds * chips
+    if hasattr(args, "walks"):  # a command that trains: its walks x steps
+        walks, steps = _get(args, "walks", DEFAULT_WALKS), _get(args, "steps", DEFAULT_STEPS)
+    elif hasattr(args, "seeds") and not hasattr(args, "steps"):  # a scenario or a sweep
+        walks, steps = DEFAULT_WALKS, DEFAULT_STEPS
+    else:  # a command whose steps are its own (the DQN's), or none
+        walks, steps = 1.0, _get(args, "steps", 0)
+    trials, budget = _get(args, "trials", 0), _get(args, "max_steps", PLAN_BUDGET)
+    side = _get(args, "arena", 0)
+    devices = _get(args, "devices", 0)
+    workers = max(1.0, min(_get(args, "workers", os.cpu_count() or 1), os.cpu_count() or 1))
+    terms = {
+        f"--seeds {seeds:g}" + (f" x --chips {chips:g}" if chips > 1 else ""):
+            models * TASK_BYTES,
+        f"--trials {trials:g} x a step budget of {budget:g}": trials * budget * PATH_BYTES,
+        f"--arena {side:g}": side * side * CELL_BYTES,
+        f"--devices {devices:g}": devices * DEVICE_BYTES,
+    }
+    seconds = (models * (walks * steps * TRAIN_STEP_S + trials * budget * PLAN_STEP_S)
+               / workers + devices * DEVICE_S)
+    ranked = tuple(sorted(((k, v) for k, v in terms.items() if v > 0), key=lambda kv: -kv[1]))
+    return Estimate(BASE_BYTES + sum(terms.values()), seconds, ranked, int(workers))
+
+
+def check(args: Any, memory: int | None = None) -> str | None:
+    """Refuse ``args`` when its :func:`estimate` exceeds the machine's memory (InputError
+    naming the option that dominates, the estimate and the memory there is); else the
+    line to print on stderr for a run estimated to take more than :data:`LOUD_S`
+    (None for a small run)."""
+    est = estimate(args)
+    memory = total_memory() if memory is None else memory
+    if est.memory > memory and est.terms:
+        option, share = est.terms[0]
+        raise InputError(f"{option} would need ~{size_text(share)} of memory; this machine "
+                         f"has {size_text(memory)} (the whole run: {est.text()})")
+    if est.seconds > LOUD_S or est.memory > memory / 2:
+        return f"cml-edge: estimate: {est.text()}"
+    return None
+
+
+__all__ = ["Estimate", "check", "estimate", "total_memory"]
