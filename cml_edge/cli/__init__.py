@@ -13,7 +13,9 @@
 - :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
 
 Bad input gets one line on stderr naming the value and what is allowed, exit status
-2, no traceback, and nothing written. ``--json`` prints one JSON object on stdout and
+2, no traceback, and nothing written; every output path is checked before any work. A
+run stopped by its surroundings (a full disk, a lost Dask scheduler) gets one line and
+exit status 1. ``--json`` prints one JSON object on stdout and
 nothing else there; without it, the command's view of the result
 (:mod:`~cml_edge.cli.output`). Progress bars go to stderr, only on a terminal.
 """
@@ -28,7 +30,7 @@ from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
-from cml_edge.errors import InputError
+from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
 
@@ -57,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
+    except RunError as exc:  # a full disk, a lost scheduler: one line, what to do next
+        print(f"cml-edge: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("cml-edge: interrupted", file=sys.stderr)
         return 130

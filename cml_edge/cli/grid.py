@@ -45,7 +45,7 @@ from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
-from cml_edge.io.files import atomic_write, writable_file
+from cml_edge.io.files import atomic_write, writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, check_seeds
 
 
@@ -300,6 +300,8 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
     if args.out:
         writable_file(args.out, "--out")
+    if getattr(args, "chips_out", None):
+        writable_folder(args.chips_out, "--chips-out")
     options = backend_options(args)
     grid, _ = _load_map_args(args)  # checks --map and --scen; the protocol loads them
     size = args.arena

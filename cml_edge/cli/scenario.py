@@ -64,6 +64,12 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_breakpoint, show=show_breakpoint)
 
 
+def _outputs(args: argparse.Namespace) -> None:
+    """--out, checked before any work."""
+    if args.out is not None:
+        writable_folder(args.out, "--out")
+
+
 def _budget(args: argparse.Namespace) -> str:
     from cml_edge.errors import InputError
 
@@ -76,8 +82,7 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     chips = chip_flags(args)  # checked now, before any task
     on_chips = {} if chips is None else {"chips": chips["n"], "first_chip": chips["first"],
                                          "yield_target": chips["yield_target"]}
-    if args.out is not None:
-        writable_folder(args.out, "--out")
+    _outputs(args)
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
                           Progress(f"scenario {args.name}"), command=command_line(), **on_chips)
@@ -89,8 +94,8 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.seeds < MIN_SEEDS:
         raise InputError(f"--seeds {args.seeds}: a break point needs at least {MIN_SEEDS}")
+    _outputs(args)
     if args.out is not None:
-        writable_folder(args.out, "--out")
         writable_file(f"{args.out}/breakpoint.json", "--out")
     result = find_breakpoint(args.scenario, args.backend, args.knob, backend_options(args),
                              args.target, args.seeds, tuple(args.range) if args.range else None,

@@ -84,6 +84,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     writable_folder(args.out, "--out")
+    writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
     report = build_report(quick=args.quick, command=command_line(),
                           progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
     folder = write_report(report, args.out)
@@ -108,11 +109,10 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge import experiments
-    from cml_edge.experiments.common import run_experiment
+    from cml_edge.experiments.common import OUT_ROOT, run_experiment
 
     module = experiments.get(args.experiment)
-    if args.out is not None:
-        writable_folder(args.out, "--out")
+    writable_folder(args.out or OUT_ROOT / module.NAME, "--out")
     if args.scen and not args.map:
         raise InputError("--scen needs --map")
     if args.map:  # fail on a bad file now, before any task runs
