@@ -302,6 +302,10 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
         writable_file(args.out, "--out")
     if getattr(args, "chips_out", None):
         writable_folder(args.chips_out, "--chips-out")
+    if getattr(args, "scheduler", None) is not None:
+        from cml_edge.engine.sweep import check_scheduler
+
+        check_scheduler(args.scheduler)
     options = backend_options(args)
     grid, _ = _load_map_args(args)  # checks --map and --scen; the protocol loads them
     size = args.arena

@@ -65,7 +65,11 @@ def add_parsers(sub) -> None:
 
 
 def _outputs(args: argparse.Namespace) -> None:
-    """--out, checked before any work."""
+    """--out and --scheduler, checked before any work."""
+    from cml_edge.engine.sweep import check_scheduler
+
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     if args.out is not None:
         writable_folder(args.out, "--out")
 

@@ -109,9 +109,12 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge import experiments
+    from cml_edge.engine.sweep import check_scheduler
     from cml_edge.experiments.common import OUT_ROOT, run_experiment
 
     module = experiments.get(args.experiment)
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     writable_folder(args.out or OUT_ROOT / module.NAME, "--out")
     if args.scen and not args.map:
         raise InputError("--scen needs --map")

@@ -14,6 +14,9 @@ same there. :func:`run_sweep`:
   address (``tcp://host:8786``; the ``distributed`` extra, imported only then). The
   workers only compute; this process writes every file, so the workers need no
   shared file system;
+- checks a scheduler address's form before any task (:func:`check_scheduler`); a
+  scheduler lost mid-run ends with :class:`SchedulerLostError`, one line naming how many tasks
+  finished and where they are kept (a rerun resumes from them);
 - reports progress as ``progress(done, total)``.
 
 Tasks are deterministic functions of their arguments (every random number comes from
@@ -23,9 +26,12 @@ in a result is the only field that varies.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
+import logging
 import os
+import re
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -33,11 +39,44 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cml_edge.errors import InputError
+from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
 
 TASK_FORMAT = "cml-edge-sweep-task"
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+"""The Dask communication protocols an address may name (``tcp`` when it names none)."""
+_HOST_PORT = re.compile(r"(?:[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?|\[[0-9A-Fa-f:.]+\])"
+                        r":([0-9]{1,5})")
+
+
+def check_scheduler(address: str) -> str:
+    """``address`` if it has the form of a Dask scheduler's address: ``host:port`` or
+    ``PROTOCOL://host:port`` (a protocol of :data:`SCHEMES`; ``inproc://NAME`` for one in
+    this process); InputError naming the forms otherwise. Whether it answers is known
+    only when connecting."""
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    ok = scheme in SCHEMES and (bool(rest) if scheme == "inproc" else bool(
+        (m := _HOST_PORT.fullmatch(rest)) and 1 <= int(m.group(1)) <= 65535))
+    if not ok:
+        raise InputError(f"--scheduler {address!r} is not a Dask scheduler address (allowed: "
+                         f"HOST:PORT or PROTOCOL://HOST:PORT, PROTOCOL one of "
+                         f"{', '.join(SCHEMES[:-1])}; e.g. tcp://127.0.0.1:8786)")
+    return address
+
+
+class SchedulerLostError(RunError):
+    """The Dask scheduler (or the connection to it) was lost before every task finished."""
+
+    def __init__(self, scheduler: str, reason: str, done: int, total: int,
+                 kept: Path | None) -> None:
+        where = (f"they are kept in {str(kept)!r}: run the same command again to resume"
+                 if kept is not None else "they were not kept (no output folder): give "
+                 "--out to make a run resumable")
+        super().__init__(f"lost the Dask scheduler {scheduler!r} ({reason}) with {done} of "
+                         f"{total} tasks finished; {where}")
 
 
 @dataclass(frozen=True)
@@ -85,8 +124,12 @@ def load_done(out: str | Path, task: Task) -> dict[str, Any] | None:
 
 def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None,
               scheduler: str | None = None,
-              progress: Callable[[int, int], None] | None = None) -> dict[str, dict[str, Any]]:
-    """Run every task not yet done under ``out``; returns {key: result} for all tasks."""
+              progress: Callable[[int, int], None] | None = None,
+              resumable: bool = True) -> dict[str, dict[str, Any]]:
+    """Run every task not yet done under ``out``; returns {key: result} for all tasks.
+    ``resumable`` False: ``out`` is a temporary folder (what a lost scheduler's line says)."""
+    if scheduler is not None:
+        check_scheduler(scheduler)
     tasks = list(tasks)
     keys = [t.key for t in tasks]
     if len(set(keys)) != len(keys):
@@ -112,8 +155,12 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     if progress is not None:
         progress(len(results), total)
     if todo:
-        if scheduler:
-            _run_dask(todo, scheduler, finish)
+        if scheduler is not None:
+            try:
+                _run_dask(todo, scheduler, finish)
+            except _LostError as exc:
+                kept = task_path(out, "x").parent if resumable else None
+                raise SchedulerLostError(scheduler, str(exc), len(results), total, kept) from None
         else:
             n = workers or os.cpu_count() or 1
             if n == 1 or len(todo) == 1:
@@ -142,10 +189,39 @@ def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], No
         client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
+    quiet = _quiet_dask()  # a lost scheduler is reported in one line, not Dask's log
     try:
         with client.as_current():
             futures = client.map(run_task, todo, pure=False)
             for fut in dask_completed(futures):
-                finish(*fut.result())
+                try:
+                    key, doc = fut.result()
+                except Exception as exc:
+                    if fut.status == "error":  # the task itself raised: a bug, shown as one
+                        raise
+                    raise _LostError(_lost_reason(exc)) from None
+                finish(key, doc)
     finally:
-        client.close()
+        with contextlib.suppress(Exception):  # a client whose scheduler is gone: no matter
+            client.close(timeout=2)
+        for logger, level in quiet:
+            logger.setLevel(level)
+
+
+def _quiet_dask() -> list[tuple[logging.Logger, int]]:
+    """Silence Dask's loggers; returns (logger, level) to restore."""
+    names = ["distributed", *(n for n in logging.root.manager.loggerDict
+                              if n.startswith("distributed."))]
+    saved = [(logging.getLogger(n), logging.getLogger(n).level) for n in names]
+    for logger, _ in saved:
+        logger.setLevel(logging.CRITICAL + 1)
+    return saved
+
+
+class _LostError(Exception):
+    """The scheduler went away while tasks were running."""
+
+
+def _lost_reason(exc: Exception) -> str:
+    reason = getattr(exc, "reason", None)  # a cancelled future's, e.g. scheduler-connection-lost
+    return str(reason) if reason else f"{type(exc).__name__}: {exc}".splitlines()[0][:160]

@@ -153,7 +153,7 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="cml-edge-scenario-") as tmp:
         results = run_sweep(tasks, out or tmp, workers=workers, scheduler=scheduler,
-                            progress=progress)
+                            progress=progress, resumable=out is not None)
     parts: dict[str, list[tuple[dict[str, Any], int, int | None]]] = {}
     for task in tasks:  # (record, model seed, chip seed) of each part
         res = results[task.key]
