@@ -30,6 +30,7 @@ from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
+from cml_edge.engine.stop import stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
@@ -53,18 +54,20 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
-        with announce_compiles(args):
-            result = args.run(args)
+        with stop_on_signals():
+            args = parser.parse_args(argv)
+            with announce_compiles(args):
+                result = args.run(args)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
     except RunError as exc:  # a full disk, a lost scheduler: one line, what to do next
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("cml-edge: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers ended, no half file
+        sig = stop_signal(exc)
+        print(f"cml-edge: stopped by {sig.name}; nothing was half-written", file=sys.stderr)
+        return 128 + sig
     if getattr(args, "json", False):
         print(json.dumps(result))
     else:

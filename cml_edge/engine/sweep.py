@@ -17,6 +17,9 @@ same there. :func:`run_sweep`:
 - checks a scheduler address's form before any task (:func:`check_scheduler`); a
   scheduler lost mid-run ends with :class:`SchedulerLostError`, one line naming how many tasks
   finished and where they are kept (a rerun resumes from them);
+- stops cleanly: on Ctrl-C or SIGTERM (:mod:`cml_edge.engine.stop`) the pool's workers
+  are ended before the run stops, and a worker dies with its parent, even a SIGKILLed
+  one, so no process is left behind;
 - reports progress as ``progress(done, total)``.
 
 Tasks are deterministic functions of their arguments (every random number comes from
@@ -39,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cml_edge.engine.stop import worker_init
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
 
@@ -167,16 +171,40 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
                 for task in todo:
                     finish(*run_task(task))
             else:
-                with ProcessPoolExecutor(max_workers=min(n, len(todo))) as pool:
-                    futures = [pool.submit(run_task, task) for task in todo]
-                    try:
-                        for fut in as_completed(futures):
-                            finish(*fut.result())
-                    except BaseException:
-                        for fut in futures:
-                            fut.cancel()
-                        raise
+                _run_pool(todo, min(n, len(todo)), finish)
     return {k: results[k] for k in keys}
+
+
+def _run_pool(todo: list[Task], workers: int,
+              finish: Callable[[str, dict[str, Any]], None]) -> None:
+    """The tasks on a local process pool whose workers die with this process
+    (:func:`~cml_edge.engine.stop.worker_init`); on any exception (a stop request too)
+    every worker is ended before it propagates."""
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
+                               initargs=(os.getpid(),))
+    try:
+        futures = [pool.submit(run_task, task) for task in todo]
+        for fut in as_completed(futures):
+            finish(*fut.result())
+    except BaseException:
+        end_pool(pool)
+        raise
+    pool.shutdown()
+
+
+def end_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started, end the workers (SIGTERM, then SIGKILL after a
+    second) and wait for them."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    deadline = time.monotonic() + 1.0
+    for proc in processes:
+        proc.join(max(0.0, deadline - time.monotonic()))
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
 
 
 def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], None]) -> None:
