@@ -45,6 +45,9 @@ def add_parsers(sub) -> None:
     p.add_argument("name", help=f"scenario: {', '.join(SCENARIOS)}")
     _add_common(p, 10)
     p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
+    p.add_argument("--restart", action="store_true",
+                   help="start the run in --out over (a run folder of other settings is "
+                        "refused without it)")
     add_chip_flags(p)
     p.set_defaults(run=cmd_scenario, show=show_scenario)
 
@@ -72,6 +75,10 @@ def _outputs(args: argparse.Namespace) -> None:
         check_scheduler(args.scheduler)
     if args.out is not None:
         writable_folder(args.out, "--out")
+    elif getattr(args, "restart", False):
+        from cml_edge.errors import InputError
+
+        raise InputError("--restart needs --out (the run folder to start over)")
 
 
 def _budget(args: argparse.Namespace) -> str:
@@ -89,7 +96,8 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     _outputs(args)
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
-                          Progress(f"scenario {args.name}"), command=command_line(), **on_chips)
+                          Progress(f"scenario {args.name}"), command=command_line(),
+                          restart=args.restart, **on_chips)
     return result
 
 

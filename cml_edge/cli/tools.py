@@ -37,6 +37,9 @@ def add_parsers(sub) -> None:
                    help="a MovingAI .map file (or shipped map name): maps and exploration "
                         "experiments")
     p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
+    p.add_argument("--restart", action="store_true",
+                   help="start the run in --out over (a run folder of other settings is "
+                        "refused without it)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(run=cmd_sweep, show=show_sweep)
 
@@ -126,7 +129,8 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
             load_scen(args.scen)
     summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
                              progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
-                             planner=args.planner, map=args.map, scen=args.scen)
+                             planner=args.planner, map=args.map, scen=args.scen,
+                             restart=args.restart)
     summary["command"] = command_line()
     return summary
 

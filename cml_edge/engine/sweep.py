@@ -8,7 +8,9 @@ same there. :func:`run_sweep`:
 - writes each task's result to ``OUT/tasks/KEY.json`` atomically as soon as it
   finishes (:func:`cml_edge.io.files.atomic_write_text`), so an interrupted sweep
   loses only the tasks that were running;
-- skips every task whose result file is already there (a rerun resumes);
+- skips every task whose result file is already there and checks (a rerun resumes); a
+  run folder records its settings first and refuses a run of other settings
+  (:mod:`cml_edge.engine.runs`);
 - runs the rest in-process (``workers=1``), in a local process pool (``workers`` > 1,
   default: one per core), or on a Dask distributed cluster when ``scheduler`` is an
   address (``tcp://host:8786``; the ``distributed`` extra, imported only then). The
@@ -42,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cml_edge.engine.runs import checksum, open_run, plain
 from cml_edge.engine.stop import worker_init
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
@@ -113,15 +116,18 @@ def task_path(out: str | Path, key: str) -> Path:
     return Path(out) / "tasks" / f"{key}.json"
 
 
-def load_done(out: str | Path, task: Task) -> dict[str, Any] | None:
-    """The stored result of ``task`` if it is complete and for the same call, else None."""
+def load_done(out: str | Path, task: Task,
+              settings: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """The stored result of ``task`` if it is complete, for the same call and its checksum
+    matches (:mod:`cml_edge.engine.runs`; ``settings``: the run's), else None."""
     path = task_path(out, task.key)
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    if doc.get("format") != TASK_FORMAT or doc.get("fn") != task.fn \
-            or doc.get("params") != json.loads(json.dumps(task.params)):
+    if not isinstance(doc, dict) or doc.get("format") != TASK_FORMAT \
+            or doc.get("fn") != task.fn or doc.get("params") != plain(task.params) \
+            or doc.get("checksum") != checksum(doc, plain(settings)):
         return None
     return doc
 
@@ -129,9 +135,12 @@ def load_done(out: str | Path, task: Task) -> dict[str, Any] | None:
 def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None,
               scheduler: str | None = None,
               progress: Callable[[int, int], None] | None = None,
-              resumable: bool = True) -> dict[str, dict[str, Any]]:
+              resumable: bool = True, settings: dict[str, Any] | None = None,
+              restart: bool = False) -> dict[str, dict[str, Any]]:
     """Run every task not yet done under ``out``; returns {key: result} for all tasks.
-    ``resumable`` False: ``out`` is a temporary folder (what a lost scheduler's line says)."""
+    ``resumable`` False: ``out`` is a temporary folder (what a lost scheduler's line says).
+    With ``settings``, ``out`` is a run folder of those settings (``restart``: start it
+    over; :func:`cml_edge.engine.runs.open_run`)."""
     if scheduler is not None:
         check_scheduler(scheduler)
     tasks = list(tasks)
@@ -140,10 +149,13 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
         raise InputError("task keys are not unique")
     if workers is not None and workers < 1:
         raise InputError(f"workers {workers!r} is not an integer >= 1")
+    if settings is not None:
+        open_run(out, settings, tasks, restart)
+    settings = plain(settings)
     results: dict[str, dict[str, Any]] = {}
     todo = []
     for task in tasks:
-        doc = load_done(out, task)
+        doc = load_done(out, task, settings)
         if doc is None:
             todo.append(task)
         else:
@@ -151,6 +163,7 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     total = len(tasks)
 
     def finish(key: str, doc: dict[str, Any]) -> None:
+        doc["checksum"] = checksum(doc, settings)
         atomic_write_text(task_path(out, key), json.dumps(doc, indent=1))
         results[key] = doc["result"]
         if progress is not None:

@@ -97,3 +97,16 @@ def test_a_lost_scheduler_ends_with_one_line_and_the_run_resumes(tmp_path):
 def test_a_lost_scheduler_without_a_folder_says_how_to_keep_tasks(tmp_path):
     err = SchedulerLostError("tcp://h:1", "CommClosedError", 2, 5, None)
     assert "give --out to make a run resumable" in str(err) and "2 of 5" in str(err)
+
+
+def test_the_command_line_ends_a_lost_run_with_one_line(cli, tmp_path, monkeypatch):
+    def lost(*args, **kwargs):
+        raise SchedulerLostError("tcp://h:1", "scheduler-connection-lost", 3, 10,
+                                 tmp_path / "tasks")
+
+    monkeypatch.setattr("cml_edge.cli.scenario.run_scenario", lost)
+    code, out, err = cli("scenario", "paper", "--scheduler", "tcp://h:1", "--out", tmp_path)
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert err.startswith("cml-edge: error: lost the Dask scheduler 'tcp://h:1' "
+                          "(scheduler-connection-lost) with 3 of 10 tasks finished; they are "
+                          "kept in"), err
