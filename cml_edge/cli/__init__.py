@@ -13,7 +13,9 @@
 - :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
 
 Bad input gets one line on stderr naming the value and what is allowed, exit status
-2, no traceback, and nothing written. ``--json`` prints one JSON object on stdout and
+2, no traceback, and nothing written; every output path is checked before any work. A
+run stopped by its surroundings (a full disk, a lost Dask scheduler) gets one line and
+exit status 1. ``--json`` prints one JSON object on stdout and
 nothing else there; without it, the command's view of the result
 (:mod:`~cml_edge.cli.output`). Progress bars go to stderr, only on a terminal.
 """
@@ -30,7 +32,8 @@ from cml_edge.cli.args import limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
 from cml_edge.engine import limits
-from cml_edge.errors import InputError
+from cml_edge.engine.stop import stop_on_signals, stop_signal
+from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
 
@@ -54,18 +57,23 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
-        estimate = limits.check(args)  # before any work: refuses what will not fit
-        if estimate:
-            print(estimate, file=sys.stderr)
-        with announce_compiles(args):
-            result = args.run(args)
+        with stop_on_signals():
+            args = parser.parse_args(argv)
+            estimate = limits.check(args)  # before any work: refuses what will not fit
+            if estimate:
+                print(estimate, file=sys.stderr)
+            with announce_compiles(args):
+                result = args.run(args)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("cml-edge: interrupted", file=sys.stderr)
-        return 130
+    except RunError as exc:  # a full disk, a lost scheduler: one line, what to do next
+        print(f"cml-edge: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers ended, no half file
+        sig = stop_signal(exc)
+        print(f"cml-edge: stopped by {sig.name}; nothing was half-written", file=sys.stderr)
+        return 128 + sig
     if getattr(args, "json", False):
         print(json.dumps(result))
     else:

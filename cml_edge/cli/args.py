@@ -315,7 +315,7 @@ def add_chips(p: argparse.ArgumentParser) -> None:
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the chips on this Dask distributed scheduler")
     g.add_argument("--chips-out", default=None, metavar="FOLDER",
-                   help="the chips' task files, resumable (default runs/chips/KEY)")
+                   help="the chips' run folder, resumable (default: a temporary folder)")
 
 
 def chips_options(args: argparse.Namespace) -> dict[str, Any] | None:

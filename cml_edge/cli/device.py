@@ -56,11 +56,14 @@ def add_parsers(sub) -> None:
 
 def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.crossbar.characterize import characterize, plot
-    from cml_edge.io.files import atomic_write_text
+    from cml_edge.io.files import atomic_write_text, writable_file
 
     if args.backend != "crossbar":
         raise InputError(f"device characterize has no model of --backend {args.backend!r} "
                          "(allowed: crossbar)")
+    for flag in ("out", "plot"):
+        if getattr(args, flag):
+            writable_file(getattr(args, flag), f"--{flag}")
     options = backend_options(args)
     preset = options.pop("preset", None) or backend_spec("crossbar").device.default_preset(
         "crossbar")

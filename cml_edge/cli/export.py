@@ -16,14 +16,13 @@ from __future__ import annotations
 import argparse
 import io
 import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from cml_edge.core.model_file import MATRICES, load_model
 from cml_edge.errors import InputError
-from cml_edge.io.files import atomic_write, atomic_write_text
+from cml_edge.io.files import atomic_write, atomic_write_text, writable_folder
 
 FORMATS = ("lava",)
 
@@ -50,15 +49,13 @@ def _npz_bytes(arrays: dict[str, Any]) -> bytes:
 def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.loihi2.array import Loihi2Array, lava_description
 
+    out = writable_folder(args.out, "--out")
     cml, _ = load_model(args.model)
     kinds = sorted({arr.name for arr in cml.arrays})
     if kinds != [Loihi2Array.name]:
         raise InputError(f"{args.model!r} holds {', '.join(kinds)} arrays (backend "
                          f"{cml.backend}); --format lava exports loihi2 models only (allowed: "
                          "a model trained with --backend loihi2)")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {args.out!r} is a file (allowed: a folder)")
     files, described = [], []
     for name, arr in zip(MATRICES, cml.arrays):
         values = arr.to_lava()

@@ -45,7 +45,7 @@ from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
-from cml_edge.io.files import atomic_write, writable_file
+from cml_edge.io.files import atomic_write, writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, check_seeds
 
 
@@ -178,6 +178,9 @@ def add_parsers(sub) -> None:
     _add_planner(p)
     _add_map(p)
     add_chips(p)
+    p.add_argument("--restart", action="store_true",
+                   help="start the chips' run in --chips-out over (a run folder of another "
+                        "protocol is refused without it)")
     p.set_defaults(run=cmd_emulate, show=show_protocol)
 
 
@@ -299,6 +302,14 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
     if args.out:
         writable_file(args.out, "--out")
+    if args.chips_out:
+        writable_folder(args.chips_out, "--chips-out")
+    elif args.restart:
+        raise InputError("--restart needs --chips-out (the chips' run folder to start over)")
+    if getattr(args, "scheduler", None) is not None:
+        from cml_edge.engine.sweep import check_scheduler
+
+        check_scheduler(args.scheduler)
     options = backend_options(args)
     grid, _ = _load_map_args(args)  # checks --map and --scen; the protocol loads them
     size = args.arena
@@ -335,7 +346,8 @@ def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
     from cml_edge.grid.chips import run_chips
 
     result = {"backend": args.backend, **run_chips(
-        protocol=protocol, progress=Progress(f"emulate {args.backend} chips"), **chips)}
+        protocol=protocol, progress=Progress(f"emulate {args.backend} chips"),
+        restart=args.restart, **chips)}
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:

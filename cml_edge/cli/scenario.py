@@ -45,6 +45,9 @@ def add_parsers(sub) -> None:
     p.add_argument("name", help=f"scenario: {', '.join(SCENARIOS)}")
     _add_common(p, 10)
     p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
+    p.add_argument("--restart", action="store_true",
+                   help="start the run in --out over (a run folder of other settings is "
+                        "refused without it)")
     add_chip_flags(p)
     p.set_defaults(run=cmd_scenario, show=show_scenario)
 
@@ -64,6 +67,20 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_breakpoint, show=show_breakpoint)
 
 
+def _outputs(args: argparse.Namespace) -> None:
+    """--out and --scheduler, checked before any work."""
+    from cml_edge.engine.sweep import check_scheduler
+
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    if args.out is not None:
+        writable_folder(args.out, "--out")
+    elif getattr(args, "restart", False):
+        from cml_edge.errors import InputError
+
+        raise InputError("--restart needs --out (the run folder to start over)")
+
+
 def _budget(args: argparse.Namespace) -> str:
     from cml_edge.errors import InputError
 
@@ -76,11 +93,11 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     chips = chip_flags(args)  # checked now, before any task
     on_chips = {} if chips is None else {"chips": chips["n"], "first_chip": chips["first"],
                                          "yield_target": chips["yield_target"]}
-    if args.out is not None:
-        writable_folder(args.out, "--out")
+    _outputs(args)
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
-                          Progress(f"scenario {args.name}"), command=command_line(), **on_chips)
+                          Progress(f"scenario {args.name}"), command=command_line(),
+                          restart=args.restart, **on_chips)
     return result
 
 
@@ -89,8 +106,8 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
 
     if args.seeds < MIN_SEEDS:
         raise InputError(f"--seeds {args.seeds}: a break point needs at least {MIN_SEEDS}")
+    _outputs(args)
     if args.out is not None:
-        writable_folder(args.out, "--out")
         writable_file(f"{args.out}/breakpoint.json", "--out")
     result = find_breakpoint(args.scenario, args.backend, args.knob, backend_options(args),
                              args.target, args.seeds, tuple(args.range) if args.range else None,

@@ -37,6 +37,9 @@ def add_parsers(sub) -> None:
                    help="a MovingAI .map file (or shipped map name): maps and exploration "
                         "experiments")
     p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
+    p.add_argument("--restart", action="store_true",
+                   help="start the run in --out over (a run folder of other settings is "
+                        "refused without it)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(run=cmd_sweep, show=show_sweep)
 
@@ -84,6 +87,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     writable_folder(args.out, "--out")
+    writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
     report = build_report(quick=args.quick, command=command_line(),
                           progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
     folder = write_report(report, args.out)
@@ -108,11 +112,13 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge import experiments
-    from cml_edge.experiments.common import run_experiment
+    from cml_edge.engine.sweep import check_scheduler
+    from cml_edge.experiments.common import OUT_ROOT, run_experiment
 
     module = experiments.get(args.experiment)
-    if args.out is not None:
-        writable_folder(args.out, "--out")
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    writable_folder(args.out or OUT_ROOT / module.NAME, "--out")
     if args.scen and not args.map:
         raise InputError("--scen needs --map")
     if args.map:  # fail on a bad file now, before any task runs
@@ -123,7 +129,8 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
             load_scen(args.scen)
     summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
                              progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
-                             planner=args.planner, map=args.map, scen=args.scen)
+                             planner=args.planner, map=args.map, scen=args.scen,
+                             restart=args.restart)
     summary["command"] = command_line()
     return summary
 

@@ -8,12 +8,20 @@ same there. :func:`run_sweep`:
 - writes each task's result to ``OUT/tasks/KEY.json`` atomically as soon as it
   finishes (:func:`cml_edge.io.files.atomic_write_text`), so an interrupted sweep
   loses only the tasks that were running;
-- skips every task whose result file is already there (a rerun resumes);
+- skips every task whose result file is already there and checks (a rerun resumes); a
+  run folder records its settings first and refuses a run of other settings
+  (:mod:`cml_edge.engine.runs`);
 - runs the rest in-process (``workers=1``), in a local process pool (``workers`` > 1,
   default: one per core), or on a Dask distributed cluster when ``scheduler`` is an
   address (``tcp://host:8786``; the ``distributed`` extra, imported only then). The
   workers only compute; this process writes every file, so the workers need no
   shared file system;
+- checks a scheduler address's form before any task (:func:`check_scheduler`); a
+  scheduler lost mid-run ends with :class:`SchedulerLostError`, one line naming how many tasks
+  finished and where they are kept (a rerun resumes from them);
+- stops cleanly: on Ctrl-C or SIGTERM (:mod:`cml_edge.engine.stop`) the pool's workers
+  are ended before the run stops, and a worker dies with its parent, even a SIGKILLed
+  one, so no process is left behind;
 - reports progress as ``progress(done, total)``.
 
 Tasks are deterministic functions of their arguments (every random number comes from
@@ -23,9 +31,12 @@ in a result is the only field that varies.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
+import logging
 import os
+import re
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -33,11 +44,46 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cml_edge.errors import InputError
+from cml_edge.engine.runs import checksum, open_run, plain
+from cml_edge.engine.stop import worker_init
+from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
 
 TASK_FORMAT = "cml-edge-sweep-task"
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+"""The Dask communication protocols an address may name (``tcp`` when it names none)."""
+_HOST_PORT = re.compile(r"(?:[A-Za-z0-9](?:[A-Za-z0-9.-]*[A-Za-z0-9])?|\[[0-9A-Fa-f:.]+\])"
+                        r":([0-9]{1,5})")
+
+
+def check_scheduler(address: str) -> str:
+    """``address`` if it has the form of a Dask scheduler's address: ``host:port`` or
+    ``PROTOCOL://host:port`` (a protocol of :data:`SCHEMES`; ``inproc://NAME`` for one in
+    this process); InputError naming the forms otherwise. Whether it answers is known
+    only when connecting."""
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    ok = scheme in SCHEMES and (bool(rest) if scheme == "inproc" else bool(
+        (m := _HOST_PORT.fullmatch(rest)) and 1 <= int(m.group(1)) <= 65535))
+    if not ok:
+        raise InputError(f"--scheduler {address!r} is not a Dask scheduler address (allowed: "
+                         f"HOST:PORT or PROTOCOL://HOST:PORT, PROTOCOL one of "
+                         f"{', '.join(SCHEMES[:-1])}; e.g. tcp://127.0.0.1:8786)")
+    return address
+
+
+class SchedulerLostError(RunError):
+    """The Dask scheduler (or the connection to it) was lost before every task finished."""
+
+    def __init__(self, scheduler: str, reason: str, done: int, total: int,
+                 kept: Path | None) -> None:
+        where = (f"they are kept in {str(kept)!r}: run the same command again to resume"
+                 if kept is not None else "they were not kept (no output folder): give "
+                 "--out to make a run resumable")
+        super().__init__(f"lost the Dask scheduler {scheduler!r} ({reason}) with {done} of "
+                         f"{total} tasks finished; {where}")
 
 
 @dataclass(frozen=True)
@@ -70,33 +116,46 @@ def task_path(out: str | Path, key: str) -> Path:
     return Path(out) / "tasks" / f"{key}.json"
 
 
-def load_done(out: str | Path, task: Task) -> dict[str, Any] | None:
-    """The stored result of ``task`` if it is complete and for the same call, else None."""
+def load_done(out: str | Path, task: Task,
+              settings: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """The stored result of ``task`` if it is complete, for the same call and its checksum
+    matches (:mod:`cml_edge.engine.runs`; ``settings``: the run's), else None."""
     path = task_path(out, task.key)
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    if doc.get("format") != TASK_FORMAT or doc.get("fn") != task.fn \
-            or doc.get("params") != json.loads(json.dumps(task.params)):
+    if not isinstance(doc, dict) or doc.get("format") != TASK_FORMAT \
+            or doc.get("fn") != task.fn or doc.get("params") != plain(task.params) \
+            or doc.get("checksum") != checksum(doc, plain(settings)):
         return None
     return doc
 
 
 def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None,
               scheduler: str | None = None,
-              progress: Callable[[int, int], None] | None = None) -> dict[str, dict[str, Any]]:
-    """Run every task not yet done under ``out``; returns {key: result} for all tasks."""
+              progress: Callable[[int, int], None] | None = None,
+              resumable: bool = True, settings: dict[str, Any] | None = None,
+              restart: bool = False) -> dict[str, dict[str, Any]]:
+    """Run every task not yet done under ``out``; returns {key: result} for all tasks.
+    ``resumable`` False: ``out`` is a temporary folder (what a lost scheduler's line says).
+    With ``settings``, ``out`` is a run folder of those settings (``restart``: start it
+    over; :func:`cml_edge.engine.runs.open_run`)."""
+    if scheduler is not None:
+        check_scheduler(scheduler)
     tasks = list(tasks)
     keys = [t.key for t in tasks]
     if len(set(keys)) != len(keys):
         raise InputError("task keys are not unique")
     if workers is not None and workers < 1:
         raise InputError(f"workers {workers!r} is not an integer >= 1")
+    if settings is not None:
+        open_run(out, settings, tasks, restart)
+    settings = plain(settings)
     results: dict[str, dict[str, Any]] = {}
     todo = []
     for task in tasks:
-        doc = load_done(out, task)
+        doc = load_done(out, task, settings)
         if doc is None:
             todo.append(task)
         else:
@@ -104,6 +163,7 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     total = len(tasks)
 
     def finish(key: str, doc: dict[str, Any]) -> None:
+        doc["checksum"] = checksum(doc, settings)
         atomic_write_text(task_path(out, key), json.dumps(doc, indent=1))
         results[key] = doc["result"]
         if progress is not None:
@@ -112,24 +172,52 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     if progress is not None:
         progress(len(results), total)
     if todo:
-        if scheduler:
-            _run_dask(todo, scheduler, finish)
+        if scheduler is not None:
+            try:
+                _run_dask(todo, scheduler, finish)
+            except _LostError as exc:
+                kept = task_path(out, "x").parent if resumable else None
+                raise SchedulerLostError(scheduler, str(exc), len(results), total, kept) from None
         else:
             n = workers or os.cpu_count() or 1
             if n == 1 or len(todo) == 1:
                 for task in todo:
                     finish(*run_task(task))
             else:
-                with ProcessPoolExecutor(max_workers=min(n, len(todo))) as pool:
-                    futures = [pool.submit(run_task, task) for task in todo]
-                    try:
-                        for fut in as_completed(futures):
-                            finish(*fut.result())
-                    except BaseException:
-                        for fut in futures:
-                            fut.cancel()
-                        raise
+                _run_pool(todo, min(n, len(todo)), finish)
     return {k: results[k] for k in keys}
+
+
+def _run_pool(todo: list[Task], workers: int,
+              finish: Callable[[str, dict[str, Any]], None]) -> None:
+    """The tasks on a local process pool whose workers die with this process
+    (:func:`~cml_edge.engine.stop.worker_init`); on any exception (a stop request too)
+    every worker is ended before it propagates."""
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
+                               initargs=(os.getpid(),))
+    try:
+        futures = [pool.submit(run_task, task) for task in todo]
+        for fut in as_completed(futures):
+            finish(*fut.result())
+    except BaseException:
+        end_pool(pool)
+        raise
+    pool.shutdown()
+
+
+def end_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started, end the workers (SIGTERM, then SIGKILL after a
+    second) and wait for them."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    deadline = time.monotonic() + 1.0
+    for proc in processes:
+        proc.join(max(0.0, deadline - time.monotonic()))
+        if proc.is_alive():
+            proc.kill()
+            proc.join()
 
 
 def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], None]) -> None:
@@ -142,10 +230,39 @@ def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], No
         client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({exc})") from None
+    quiet = _quiet_dask()  # a lost scheduler is reported in one line, not Dask's log
     try:
         with client.as_current():
             futures = client.map(run_task, todo, pure=False)
             for fut in dask_completed(futures):
-                finish(*fut.result())
+                try:
+                    key, doc = fut.result()
+                except Exception as exc:
+                    if fut.status == "error":  # the task itself raised: a bug, shown as one
+                        raise
+                    raise _LostError(_lost_reason(exc)) from None
+                finish(key, doc)
     finally:
-        client.close()
+        with contextlib.suppress(Exception):  # a client whose scheduler is gone: no matter
+            client.close(timeout=2)
+        for logger, level in quiet:
+            logger.setLevel(level)
+
+
+def _quiet_dask() -> list[tuple[logging.Logger, int]]:
+    """Silence Dask's loggers; returns (logger, level) to restore."""
+    names = ["distributed", *(n for n in logging.root.manager.loggerDict
+                              if n.startswith("distributed."))]
+    saved = [(logging.getLogger(n), logging.getLogger(n).level) for n in names]
+    for logger, _ in saved:
+        logger.setLevel(logging.CRITICAL + 1)
+    return saved
+
+
+class _LostError(Exception):
+    """The scheduler went away while tasks were running."""
+
+
+def _lost_reason(exc: Exception) -> str:
+    reason = getattr(exc, "reason", None)  # a cancelled future's, e.g. scheduler-connection-lost
+    return str(reason) if reason else f"{type(exc).__name__}: {exc}".splitlines()[0][:160]

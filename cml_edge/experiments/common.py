@@ -184,11 +184,16 @@ def figure():
 def run_experiment(module: Any, out: str | Path | None = None, workers: int | None = None,
                    scheduler: str | None = None,
                    progress: Callable[[int, int], None] | None = None,
-                   **options: Any) -> dict[str, Any]:
-    """Sweep ``module``'s tasks into ``out`` and write results.json / .csv / figure.png."""
+                   restart: bool = False, **options: Any) -> dict[str, Any]:
+    """Sweep ``module``'s tasks into ``out`` and write results.json / .csv / figure.png.
+    ``out`` is a run folder of the experiment and its options but the seeds
+    (:mod:`cml_edge.engine.runs`; ``restart`` starts it over)."""
     out = Path(out) if out else OUT_ROOT / module.NAME
     tasks = module.tasks(**options)
-    results = run_sweep(tasks, out, workers=workers, scheduler=scheduler, progress=progress)
+    settings = {"run": "experiment", "experiment": module.NAME,
+                **{k: v for k, v in options.items() if k != "seeds"}}
+    results = run_sweep(tasks, out, workers=workers, scheduler=scheduler, progress=progress,
+                        settings=settings, restart=restart)
     configs = {config_id(t.key): {k: v for k, v in t.params.items() if k not in ("seed",)}
                for t in tasks}
     for key, res in results.items():

@@ -16,7 +16,8 @@ seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
 ``--chips``). A float array draws nothing, so its chips are all the same.
 
 Each chip is one task of the sweep engine (:mod:`cml_edge.engine.sweep`: local pool or Dask,
-resumable, one atomic file per chip), running :func:`cml_edge.grid.evaluation.run_protocol`
+one atomic file per chip, resumable in the folder the user names; without one, a temporary
+folder removed at the end), running :func:`cml_edge.grid.evaluation.run_protocol`
 on the run's :class:`~cml_edge.grid.evaluation.Protocol` with its chip seed.
 :func:`pool_chips` pools the per-chip summaries generically: every numeric key of the
 protocol's per-seed summaries (the success rate, e_pos, the decision agreement, ...; a
@@ -28,11 +29,11 @@ yield target.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
+import tempfile
 import time
 from collections.abc import Callable, Sequence
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -46,7 +47,6 @@ if TYPE_CHECKING:
     from cml_edge.grid.evaluation import Protocol
 
 DEFAULT_YIELD_TARGET = 0.95
-CHIPS_FOLDER = Path("runs") / "chips"
 QUANTILES = {"p05": 0.05, "median": 0.5, "p95": 0.95}
 
 
@@ -134,28 +134,29 @@ def pool_chips(results: Sequence[dict[str, Any]], yield_target: float) -> dict[s
             "yield": chip_yield(success, yield_target), "yield_target": float(yield_target)}
 
 
-def protocol_key(protocol: dict[str, Any]) -> str:
-    """A short name of the protocol's parameters (the default folder of its chips)."""
-    text = json.dumps(protocol, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
-
-
 def run_chips(n: int, protocol: Protocol, yield_target: float = DEFAULT_YIELD_TARGET,
               first: int = 0, out: str | Path | None = None, workers: int | None = None,
               scheduler: str | None = None,
-              progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+              progress: Callable[[int, int], None] | None = None,
+              restart: bool = False) -> dict[str, Any]:
     """Chips ``first`` .. ``first + n - 1`` through ``protocol`` (its ``chip`` left unset:
-    each chip is one), on the sweep engine; task files under ``out`` (default
-    ``runs/chips/KEY``, KEY from the protocol), so a rerun resumes. Returns the pooled
-    result (:func:`pool_chips`) with the protocol, the folder and the wall time."""
+    each chip is one), on the sweep engine; task files under ``out``, so a rerun resumes
+    (None: a temporary folder, removed at the end). ``out`` is a run folder of the
+    protocol (:mod:`cml_edge.engine.runs`; every chip trains the protocol's seeds, so they
+    are among its settings; more chips resume it; ``restart`` starts it over). Returns the
+    pooled result (:func:`pool_chips`) with the protocol, the folder (None without
+    ``out``) and the wall time."""
     check_chips(n, yield_target, first)
     if protocol.chip is not None:
         raise InputError(f"the protocol's chip {protocol.chip} is set (allowed: None; each "
                          f"chip of the run is given its chip seed)")
     settings = protocol.to_dict()
-    folder = Path(out) if out is not None else CHIPS_FOLDER / protocol_key(settings)
     t0 = time.perf_counter()
-    done = run_sweep(chip_tasks(n, settings, first), folder, workers=workers,
-                     scheduler=scheduler, progress=progress)
+    keep = nullcontext(out) if out is not None else tempfile.TemporaryDirectory(
+        prefix="cml-edge-chips-")
+    with keep as folder:
+        done = run_sweep(chip_tasks(n, settings, first), folder, workers=workers,
+                         scheduler=scheduler, progress=progress, resumable=out is not None,
+                         settings={"run": "chips", "protocol": settings}, restart=restart)
     return {**pool_chips(list(done.values()), yield_target), "protocol": settings,
-            "out": str(folder), "wall_time_s": time.perf_counter() - t0}
+            "out": None if out is None else str(out), "wall_time_s": time.perf_counter() - t0}

@@ -1,9 +1,12 @@
 """Files cml-edge writes: path checks before any work, and atomic writes.
 
 Every file cml-edge writes goes to a temporary name in the target folder and is renamed
-into place, so an interrupted write leaves no half file. :func:`writable_file` and
-:func:`writable_folder` check an output path up front, so a bad one is refused before
-any work is done.
+into place, so an interrupted write leaves no half file, and a write that fails (a full
+disk) removes its temporary file and ends the run with :class:`~cml_edge.errors.RunError`
+(one line). :func:`writable_file` and :func:`writable_folder` check an output path up
+front, by creating and removing a file where it will be written (the folder, or its
+nearest existing parent), so a read-only or pseudo-filesystem path is refused before any
+work is done.
 """
 
 from __future__ import annotations
@@ -14,16 +17,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
-from cml_edge.errors import InputError
+from cml_edge.errors import InputError, RunError
 
 
 def writable_file(path: str | Path, what: str = "output file") -> Path:
     """``path`` as a file cml-edge may write (its missing folders are made when it is
     written); InputError naming ``what`` when it is a folder or lies under a file."""
-    path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{what} {str(path)!r} is a folder (allowed: a file name)")
-    _under_folders(path, what)
+    path = _file(path, what)
+    _probe(path.parent, path, what)
     return path
 
 
@@ -34,7 +35,34 @@ def writable_folder(path: str | Path, what: str = "output folder") -> Path:
     if path.exists() and not path.is_dir():
         raise InputError(f"{what} {str(path)!r} is a file (allowed: a folder)")
     _under_folders(path, what)
+    _probe(path, path, what)
     return path
+
+
+def _file(path: str | Path, what: str) -> Path:
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{what} {str(path)!r} is a folder (allowed: a file name)")
+    _under_folders(path, what)
+    return path
+
+
+def _probe(folder: Path, path: Path, what: str) -> None:
+    """Create and remove a file in ``folder``, or in its nearest existing parent (where
+    the missing folders would be made); InputError naming ``what`` when that fails."""
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".cml-edge-check.", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{what} {str(path)!r} cannot be written: {str(folder)!r} takes "
+                         f"no new files ({_reason(exc)})") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def _reason(exc: OSError) -> str:
+    return (exc.strerror or str(exc)).lower()
 
 
 def _under_folders(path: Path, what: str) -> None:
@@ -47,11 +75,14 @@ def _under_folders(path: Path, what: str) -> None:
 
 
 def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
-    """Call ``write(file)`` on a temporary file beside ``path``, then rename it into place
-    (:func:`writable_file` checks ``path`` first)."""
-    path = writable_file(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    """Call ``write(file)`` on a temporary file beside ``path``, then rename it into place;
+    RunError (one line) when the write fails, the temporary file removed."""
+    path = _file(path, "output file")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise RunError(f"cannot write {str(path)!r} ({_reason(exc)})") from None
     try:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give what open() would
         with os.fdopen(fd, "wb") as f:
@@ -59,8 +90,11 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise RunError(f"cannot write {str(path)!r} ({_reason(exc)}); nothing was "
+                           f"written there") from None
         raise
 
 

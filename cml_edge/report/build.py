@@ -35,6 +35,7 @@ from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.core.cml import CMLConfig
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
+from cml_edge.errors import RunError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     Evaluation,
@@ -257,8 +258,11 @@ def write_report(report: dict[str, Any], out: str | Path) -> Path:
     from cml_edge.report.render import render_figures, render_markdown
 
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    except OSError as exc:
+        raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror})") from None
     try:
         figures = render_figures(report, tmp)
         (tmp / "report.json").write_text(json.dumps(report, indent=1, sort_keys=True))
@@ -271,7 +275,10 @@ def write_report(report: dict[str, Any], out: str | Path) -> Path:
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, out)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror}); "
+                           f"nothing was written there") from None
         raise
     return out

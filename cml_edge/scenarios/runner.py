@@ -75,6 +75,13 @@ def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
             for seed in range(int(seeds))]
 
 
+def run_settings(name: str, backend: str, options: dict[str, Any], budget: str,
+                 idle_s: float) -> dict[str, Any]:
+    """What every task of a scenario run shares (its run folder's settings)."""
+    return {"run": "scenario", "scenario": name, "world": get(name).world, "backend": backend,
+            "backend_options": dict(options), "budget": budget, "idle_s": float(idle_s)}
+
+
 def _spread(values: list[Any]) -> dict[str, Any]:
     """Seed mean and spread of values where a seed may have none (no success: no
     overhead), over the seeds that have one."""
@@ -133,7 +140,8 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
                  workers: int | None = None, scheduler: str | None = None,
                  progress: Callable[[int, int], None] | None = None, idle_s: float = 0.0,
                  command: str | None = None, chips: int | None = None, first_chip: int = 0,
-                 yield_target: float = DEFAULT_YIELD_TARGET) -> dict[str, Any]:
+                 yield_target: float = DEFAULT_YIELD_TARGET,
+                 restart: bool = False) -> dict[str, Any]:
     """Run scenario ``name`` on ``backend`` with ``options`` (the device's config fields,
     e.g. ``{"preset": "pcm"}``) for model seeds 0..``seeds``-1 at ``budget`` (a key of
     :data:`~cml_edge.scenarios.registry.BUDGETS`); ``idle_s`` more seconds idle before
@@ -141,7 +149,10 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     tasks are kept under ``out/tasks`` (resumable) and the result is written to
     ``out/results.json``; without, they go to a temporary folder. With ``chips``, on
     chip seeds ``first_chip`` .. ``first_chip + chips - 1``, each part with its yield at
-    ``yield_target``. Returns the JSON-ready result (module docstring)."""
+    ``yield_target``. ``out`` is a run folder of the scenario, device, its options, the
+    budget and ``idle_s`` (:mod:`cml_edge.engine.runs`: other settings are refused unless
+    ``restart``; more seeds or chips resume it). Returns the JSON-ready result (module
+    docstring)."""
     options = dict(options or {})
     scenario = get(name)
     world = get_world(scenario.world)
@@ -153,7 +164,9 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="cml-edge-scenario-") as tmp:
         results = run_sweep(tasks, out or tmp, workers=workers, scheduler=scheduler,
-                            progress=progress)
+                            progress=progress, resumable=out is not None,
+                            settings=run_settings(name, backend, options, budget, idle_s),
+                            restart=restart)
     parts: dict[str, list[tuple[dict[str, Any], int, int | None]]] = {}
     for task in tasks:  # (record, model seed, chip seed) of each part
         res = results[task.key]

@@ -1,0 +1,82 @@
+"""Stopping a run cleanly: SIGTERM handled as Ctrl-C, and pool workers that end with the
+process that started them.
+
+:func:`stop_on_signals` (around every ``cml-edge`` command) turns SIGTERM into
+:class:`Stopped`, a ``KeyboardInterrupt``, so SIGINT and SIGTERM unwind the same way: a
+file being written is dropped (:mod:`cml_edge.io.files` writes under a temporary name),
+the task pool ends its workers (:func:`cml_edge.engine.sweep.run_sweep`), and the command
+exits with 128 + the signal's number. Python handles a signal between two of its
+instructions, so a compiled loop is stopped when it returns: the loops return after a
+bounded chunk of work (training every ``epoch`` walks, a task, a chip).
+
+:func:`worker_init` starts each pool worker: it ignores SIGINT (Ctrl-C reaches the whole
+process group; the parent stops the pool), dies on SIGTERM, and dies with its parent,
+however the parent ends (SIGKILL too): the kernel sends it SIGKILL when the parent goes
+(Linux's ``PR_SET_PDEATHSIG``), and a thread polling the parent's id covers the rest.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+WATCH_S = 0.5  # how often a worker looks for its parent
+
+
+class Stopped(KeyboardInterrupt):
+    """A stop request by a signal other than SIGINT (SIGTERM)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+def _raise_stopped(signum: int, frame: object) -> None:
+    raise Stopped(signum)
+
+
+@contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """SIGTERM raises :class:`Stopped` in the main thread while inside (SIGINT raises
+    ``KeyboardInterrupt`` as always); elsewhere than the main thread, nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGTERM, _raise_stopped)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def stop_signal(exc: KeyboardInterrupt) -> signal.Signals:
+    """The signal that stopped the run (SIGINT for Ctrl-C); exit with 128 + its number."""
+    return signal.Signals(exc.signum if isinstance(exc, Stopped) else signal.SIGINT)
+
+
+def worker_init(parent: int) -> None:
+    """Initializer of a pool worker whose parent has process id ``parent`` (module
+    docstring)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):  # else the thread below watches
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
+    if os.getppid() != parent:  # the parent ended before this worker was ready
+        os._exit(1)
+    threading.Thread(target=_watch, args=(parent,), daemon=True,
+                     name="cml-edge-parent-watch").start()
+
+
+def _watch(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(WATCH_S)
+    os._exit(1)
