@@ -129,11 +129,11 @@ def test_a_pool_worker_dies_with_its_parent(tmp_path):
 def test_a_stopped_training_ends_within_seconds(sig, tmp_path):
     """A command without a pool: stopped between chunks of its compiled loops."""
     proc = subprocess.Popen([sys.executable, "-c", MAIN, "train", "--backend", "crossbar",
-                             "--out", tmp_path / "m.npz"], cwd=tmp_path,
+                             "--walks", "3000", "--out", tmp_path / "m.npz"], cwd=tmp_path,
                             env={**os.environ, "PYTHONPATH": str(ROOT)},
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
-        time.sleep(8)  # into the training (or the compilation before it)
+        time.sleep(5)  # into the training (or the compilation before it)
         assert proc.poll() is None
         t0 = time.monotonic()
         os.kill(proc.pid, getattr(signal, sig))
