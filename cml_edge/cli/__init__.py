@@ -13,10 +13,13 @@
 - :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
 
 Bad input gets one line on stderr naming the value and what is allowed, exit status
-2, no traceback, and nothing written; every output path is checked before any work. A
-run stopped by its surroundings (a full disk, a lost Dask scheduler) gets one line and
-exit status 1. ``--json`` prints one JSON object on stdout and
-nothing else there; without it, the command's view of the result
+2, no traceback, and nothing written; every output path is checked before any work.
+Every count, size and seed option has a range (:data:`~cml_edge.cli.args.SIZES`), and
+before any work a run's memory and time are estimated from its sizes
+(:mod:`cml_edge.engine.limits`): a run that would not fit the machine's memory is refused,
+a long one prints its estimate on stderr. A run stopped by its surroundings (a full disk,
+a lost Dask scheduler) gets one line and exit status 1. ``--json`` prints one JSON object
+on stdout and nothing else there; without it, the command's view of the result
 (:mod:`~cml_edge.cli.output`). Progress bars go to stderr, only on a terminal.
 """
 

@@ -93,7 +93,7 @@ def bad(cli, *argv):
     (["train", "--explore", "greedy", "--out", "x.npz"], "greedy"),
     (["train", "--backend", "gpu", "--out", "x.npz"], "unknown backend 'gpu'"),
     (["emulate", "--trials", "0"], "'0'"),
-    (["emulate", "--drift-time", "-1"], "negative"),
+    (["emulate", "--drift-time", "-1"], "outside the range"),
     (["emulate", "--drift-time", "inf"], "'inf'"),
     (["emulate", "--backend", "float", "--bits", "5"], "--bits is an option of the fixed"),
     (["emulate", "--backend", "int8", "--levels", "16"], "--levels is an option of the crossbar"),

@@ -209,7 +209,7 @@ def test_scorecard_sections(report):
                if r["device"] == "float32" and r["walks"] > 0)
     (bp,) = rep["breakpoints"]  # the tiny budget fails at the good end: no bracket
     assert {"device", "knob", "scenario", "value", "target", "seeds"} <= set(bp)
-    assert bp["value"] is None and "no break point within the physical range" in bp["note"]
+    assert bp["value"] is None and bp["note"].startswith("no break point within")
 
 
 @pytest.mark.slow
