@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write_text
 
@@ -104,7 +105,7 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     total = len(tasks)
 
     def finish(key: str, doc: dict[str, Any]) -> None:
-        atomic_write_text(task_path(out, key), json.dumps(doc, indent=1))
+        atomic_write_text(task_path(out, key), dumps(doc, indent=1))
         results[key] = doc["result"]
         if progress is not None:
             progress(len(results), total)
