@@ -494,7 +494,8 @@ PENDING: dict[str, str] = {
         "sweep-out-proc", "report-out-proc", "scenario-out-proc", "breakpoint-out-proc",
         "device-characterize-out-proc", "device-characterize-plot-proc", "export-out-proc",
         "device-characterize-out-folder", "device-characterize-out-under-file",
-        "device-characterize-plot-folder", "emulate-chips-out-file",
+        "device-characterize-plot-folder", "emulate-chips-out-file", "train-out-read-only",
+        "navigate-plot-read-only", "emulate-out-read-only", "report-out-read-only",
     ), "an output path is checked only when written, after the work"),
     **dict.fromkeys((
         "emulate-first-chip-int64", "scenario-first-chip-int64", "evaluate-seed-int64",
