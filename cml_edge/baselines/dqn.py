@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import fcntl
-import json
 import os
 import platform
 import time
@@ -74,6 +73,7 @@ from cml_edge.baselines.settings import (  # noqa: F401 - all re-exported
     RESULTS_PATH,
     DQNRun,
 )
+from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import (
@@ -188,7 +188,7 @@ def read_results(path: str | Path) -> dict[str, Any]:
 
 
 def write_results(path: str | Path, data: dict[str, Any]) -> None:
-    atomic_write_text(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
+    atomic_write_text(path, dumps(data, indent=1) + "\n")
 
 
 @contextmanager

@@ -18,15 +18,17 @@ Every count, size and seed option has a range (:data:`~cml_edge.cli.args.SIZES`)
 before any work a run's memory and time are estimated from its sizes
 (:mod:`cml_edge.engine.limits`): a run that would not fit the machine's memory is refused,
 a long one prints its estimate on stderr. A run stopped by its surroundings (a full disk,
-a lost Dask scheduler) gets one line and exit status 1. ``--json`` prints one JSON object
-on stdout and nothing else there; without it, the command's view of the result
-(:mod:`~cml_edge.cli.output`). Progress bars go to stderr, only on a terminal.
+a lost Dask scheduler) gets one line and exit status 1; so does a run whose device
+produced NaN or infinity (:mod:`cml_edge.core.finite`: the line names the device, the
+phase and the matrix or metric, and nothing is written). ``--json`` prints one JSON object
+on stdout (strict JSON: :func:`~cml_edge.core.finite.dumps`) and nothing else there;
+without it, the command's view of the result (:mod:`~cml_edge.cli.output`). Progress bars
+go to stderr, only on a terminal.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from cml_edge import __version__
@@ -34,6 +36,7 @@ from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
 from cml_edge.cli.args import limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
+from cml_edge.core.finite import NonFiniteError, check_finite, dumps
 from cml_edge.engine import limits
 from cml_edge.engine.stop import stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
@@ -67,18 +70,20 @@ def main(argv: list[str] | None = None) -> int:
                 print(estimate, file=sys.stderr)
             with announce_compiles(args):
                 result = args.run(args)
+            text = dumps(result) if getattr(args, "json", False) else None
+            check_finite(result)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
-    except RunError as exc:  # a full disk, a lost scheduler: one line, what to do next
-        print(f"cml-edge: error: {exc}", file=sys.stderr)
+    except (RunError, NonFiniteError) as exc:  # a full disk, a lost scheduler, a device
+        print(f"cml-edge: error: {exc}", file=sys.stderr)  # that produced NaN: one line
         return 1
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers ended, no half file
         sig = stop_signal(exc)
         print(f"cml-edge: stopped by {sig.name}; nothing was half-written", file=sys.stderr)
         return 128 + sig
-    if getattr(args, "json", False):
-        print(json.dumps(result))
+    if text is not None:
+        print(text)
     else:
         getattr(args, "show", show_fields)(result)
     return 0

@@ -10,12 +10,12 @@ four panels of a device paper; files are written atomically.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from typing import Any
 
 from cml_edge.backends import backend_spec
 from cml_edge.cli.args import Progress, add_backend, backend_options, command_line, int_at_least
+from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
 
 
@@ -71,7 +71,7 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
                           times=args.times, progress=Progress("characterize"), **options)
     result["command"] = command_line()
     if args.out:
-        atomic_write_text(args.out, json.dumps(result, indent=1) + "\n")
+        atomic_write_text(args.out, dumps(result, indent=1) + "\n")
     if args.plot:
         plot(result, args.plot)
     return result

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import argparse
 import io
-import json
 from typing import Any
 
 import numpy as np
 
+from cml_edge.core.finite import dumps
 from cml_edge.core.model_file import MATRICES, load_model
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write, atomic_write_text, writable_folder
@@ -62,7 +62,7 @@ def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
         data = _npz_bytes(values)
         atomic_write(out / f"{name}.npz", lambda f, data=data: f.write(data))
         description = lava_description(arr, name)
-        atomic_write_text(out / f"{name}.json", json.dumps(description, indent=1))
+        atomic_write_text(out / f"{name}.json", dumps(description, indent=1))
         files += [str(out / f"{name}.npz"), str(out / f"{name}.json")]
         described.append({k: values[k] for k in ("weight_exp", "num_weight_bits", "sign_mode",
                                                  "num_message_bits", "scale_exp",
@@ -71,7 +71,7 @@ def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
              "matrices": described,
              "note": "one Dense per matrix (NAME.json says how); planning also reads W_v^T, "
                      "a second Dense of W_v's weights transposed"}
-    atomic_write_text(out / "lava.json", json.dumps(index, indent=1))
+    atomic_write_text(out / "lava.json", dumps(index, indent=1))
     files.append(str(out / "lava.json"))
     return {"model": str(args.model), "format": "lava", "out": str(out), "files": files,
             "matrices": described}

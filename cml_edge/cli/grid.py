@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from collections.abc import Sequence
 from dataclasses import replace
@@ -35,6 +34,7 @@ from cml_edge.cli.output import (
 )
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
+from cml_edge.core.finite import dumps
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.core.model_file import load_model, save_model
 from cml_edge.errors import InputError
@@ -336,7 +336,7 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
-        atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
+        atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
     return result
 
 
@@ -351,7 +351,7 @@ def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
-        atomic_write(args.out, lambda f: f.write(json.dumps(result, indent=1).encode()))
+        atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
     return result
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from cml_edge.cli.args import (
@@ -17,6 +16,7 @@ from cml_edge.cli.args import (
     positive_int,
 )
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
+from cml_edge.core.finite import dumps
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import MIN_SEEDS, find_breakpoint, knob_names
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
@@ -114,7 +114,7 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
                              _budget(args), args.part, args.out, args.workers, args.scheduler,
                              command_line())
     if args.out is not None:
-        atomic_write_text(f"{args.out}/breakpoint.json", json.dumps(result, indent=1))
+        atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
     return result
 
 

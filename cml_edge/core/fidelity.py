@@ -31,15 +31,14 @@ Per-seed values are pooled over seeds by :func:`seed_stats` (mean and spread).
 from __future__ import annotations
 
 import copy
-import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
 
 from cml_edge.core.cml import CML
+from cml_edge.core.finite import MATRICES
 
-MATRICES = ("W_q", "W_k", "W_v")
 SNR_SAMPLES = 64
 """States sampled per seed for :func:`read_snr` (each gives four reads)."""
 READ_ROUNDING = 1e-12
@@ -51,15 +50,18 @@ TWIN = ("float64 CML of the same seed (same initial weights) trained on the same
         "per-step one")
 
 
-def weight_error(cml: CML, twin: CML) -> dict[str, float]:
-    """||W_dev - W_twin||_F / ||W_twin||_F per matrix, and their mean (``matrix_mean``)."""
-    out = {}
+def weight_error(cml: CML, twin: CML) -> dict[str, float | None]:
+    """||W_dev - W_twin||_F / ||W_twin||_F per matrix, and their mean (``matrix_mean``).
+    None (JSON null) means not applicable: the twin's matrix is zero and the device's is
+    not, so no relative error is defined (0.0 when both are zero); the mean is then None."""
+    out: dict[str, float | None] = {}
     for name, dev, ref in zip(MATRICES, cml.arrays, twin.arrays):
         W = ref.to_float()
         norm = float(np.linalg.norm(W))
         diff = float(np.linalg.norm(dev.to_float() - W))
-        out[name] = diff / norm if norm > 0 else (0.0 if diff == 0 else math.inf)
-    out["matrix_mean"] = float(np.mean([out[m] for m in MATRICES]))
+        out[name] = diff / norm if norm > 0 else (0.0 if diff == 0 else None)
+    values = [out[m] for m in MATRICES]
+    out["matrix_mean"] = None if None in values else float(np.mean(values))
     return out
 
 
@@ -105,13 +107,14 @@ def sample_indices(n: int, seed: int, stream: int, k: int = SNR_SAMPLES) -> np.n
 def seed_stats(values: Sequence[float | None]) -> dict[str, Any]:
     """Mean and spread over seeds: mean, std (sample, ddof 1; 0 for one seed), min, max, n.
     A None among the values (a figure not applicable: a read SNR of float64 rounding)
-    makes mean, std and max None."""
+    makes mean, std and max None. A NaN or an infinity is not hidden: it makes the
+    statistics non-finite, which :mod:`cml_edge.core.finite` refuses to write."""
     vals = list(values)
     if not vals:
         return {"mean": None, "std": None, "min": None, "max": None, "n": 0}
-    if any(v is None or not math.isfinite(v) for v in vals):
-        finite = [v for v in vals if v is not None and math.isfinite(v)]
-        return {"mean": None, "std": None, "min": min(finite) if finite else None,
+    if any(v is None for v in vals):
+        known = [v for v in vals if v is not None]
+        return {"mean": None, "std": None, "min": float(np.min(known)) if known else None,
                 "max": None, "n": len(vals)}
     a = np.asarray(vals, dtype=float)
     return {"mean": float(a.mean()), "std": float(a.std(ddof=1)) if len(a) > 1 else 0.0,

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from cml_edge.core.finite import dumps
 from cml_edge.engine.runs import checksum, open_run, plain
 from cml_edge.engine.stop import worker_init
 from cml_edge.errors import InputError, RunError
@@ -164,7 +165,7 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
 
     def finish(key: str, doc: dict[str, Any]) -> None:
         doc["checksum"] = checksum(doc, settings)
-        atomic_write_text(task_path(out, key), json.dumps(doc, indent=1))
+        atomic_write_text(task_path(out, key), dumps(doc, indent=1))
         results[key] = doc["result"]
         if progress is not None:
             progress(len(results), total)

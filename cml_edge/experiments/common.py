@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CMLConfig
+from cml_edge.core.finite import dumps
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
@@ -204,7 +204,7 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
     summary = {"experiment": module.NAME, "claim": module.CLAIM, "tasks": len(tasks),
                "seeds": options.get("seeds", DEFAULT_SEEDS), "options": options,
                "rows": rows}
-    atomic_write_text(out / "results.json", json.dumps(summary, indent=1))
+    atomic_write_text(out / "results.json", dumps(summary, indent=1))
     write_csv(out / "results.csv", rows)
     module.plot(rows, results, out / "figure.png")
     summary["out"] = str(out)

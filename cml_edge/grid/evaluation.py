@@ -44,6 +44,7 @@ import numpy as np
 from cml_edge.backends import backend_spec
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
+from cml_edge.core.finite import check_finite, check_weights
 from cml_edge.core.learning import schedule_defers
 from cml_edge.core.records import Record
 from cml_edge.errors import InputError
@@ -192,10 +193,12 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
 def evaluate_seed(run: SeedRun, evaluations: Sequence[Evaluation], idle_s: float = 0.0) -> None:
     """Let ``idle_s`` pass on the run's arrays, then plan each evaluation; the run's
     results, summaries and counters are updated (the second half of
-    :func:`train_and_evaluate`)."""
+    :func:`train_and_evaluate`). Weights the idle time made NaN or infinite raise
+    :class:`~cml_edge.core.finite.NonFiniteError` (a failed run)."""
     cml = run.cml
     for arr in cml.arrays:  # time between programming and use (drift, retention)
         arr.elapse(idle_s)
+    check_weights(cml, "drift", run.seed)
     for ev in evaluations:
         r = ev.plan(cml, run.path)
         run.results.append(r)
@@ -433,7 +436,9 @@ def run_protocol(protocol: Protocol = Protocol(),
     seed in ``per_seed``) are added, and no other number changes. On a map, ``map`` and
     ``scen`` close the result. ``progress(done, total)`` counts units of work over all
     seeds: each seed's training epochs (one every ``epoch`` walks), then its evaluation
-    (with the fidelity); it is called with 0 first, then after each unit.
+    (with the fidelity); it is called with 0 first, then after each unit. A NaN or an
+    infinity in the weights after training or drift, or in the metrics, raises
+    :class:`~cml_edge.core.finite.NonFiniteError` (a failed run).
     """
     p = protocol
     training = p.training()
@@ -472,7 +477,7 @@ def run_protocol(protocol: Protocol = Protocol(),
                        pool_pairs(pairs, len(seeds)))
     extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if p.fidelity else {}
     on_map = {"map": p.map, "scen": p.scen} if p.map is not None else {}
-    return {
+    result = {
         "backend": p.backend,
         "seeds": len(seeds),
         "seed_list": [int(s) for s in seeds],
@@ -502,3 +507,5 @@ def run_protocol(protocol: Protocol = Protocol(),
         **extra,
         **on_map,
     }
+    check_finite(result, "evaluation")
+    return result

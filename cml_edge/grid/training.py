@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 
 from cml_edge.core.cml import CML
+from cml_edge.core.finite import check_weights
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
 from cml_edge.errors import InputError
@@ -88,7 +89,8 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     paper evaluates every 10 walks). ``first_walk``: the walks are those of index
     ``first_walk`` onward of the seed's streams (their start cells and moves), e.g. more
     walks after a training of ``first_walk`` walks; the visited set of mixed exploration
-    starts empty all the same.
+    starts empty all the same. Weights that end NaN or infinite raise
+    :class:`~cml_edge.core.finite.NonFiniteError` (a failed run).
     """
     if isinstance(first_walk, bool) or int(first_walk) != first_walk or first_walk < 0:
         raise InputError(f"first walk {first_walk!r} is not an integer >= 0")
@@ -111,6 +113,7 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
         done = stop
         if on_epoch is not None:
             on_epoch(done)
+    check_weights(cml, "training", seed)
     return errors[first_walk:]
 
 

@@ -15,7 +15,6 @@ half-written files.
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 import shutil
@@ -33,6 +32,7 @@ from cml_edge.backends import BACKENDS, report_sweeps, report_systems
 from cml_edge.baselines import load_results
 from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.core.cml import CMLConfig
+from cml_edge.core.finite import dumps
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
 from cml_edge.errors import RunError
@@ -265,7 +265,7 @@ def write_report(report: dict[str, Any], out: str | Path) -> Path:
         raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror})") from None
     try:
         figures = render_figures(report, tmp)
-        (tmp / "report.json").write_text(json.dumps(report, indent=1, sort_keys=True))
+        (tmp / "report.json").write_text(dumps(report, indent=1, sort_keys=True))
         (tmp / "report.md").write_text(render_markdown(report, figures))
         if out.exists():
             old = out.with_name(f".{out.name}.old")

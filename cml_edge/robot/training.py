@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from cml_edge.core.cml import CML
+from cml_edge.core.finite import check_weights
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
 from cml_edge.errors import InputError
@@ -127,7 +128,8 @@ def train_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Rob
     """Train ``cml`` in place by random walks of the robot (module docstring).
 
     Returns the mean training error ||e_t|| of each walk and Eq. 3's per-walk gain
-    lr_q x steps x mean |o_{t+1}|^2 (largest over the walks).
+    lr_q x steps x mean |o_{t+1}|^2 (largest over the walks). Weights that end NaN or
+    infinite raise :class:`~cml_edge.core.finite.NonFiniteError` (a failed run).
     """
     if path not in PATHS:
         raise InputError(f"unknown path {path!r}; allowed: {', '.join(PATHS)}")
@@ -153,5 +155,6 @@ def train_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Rob
              errors, o_sq, work)
         if on_walk is not None:
             on_walk(w1)
+    check_weights(cml, "training", seed)
     return {"train_error": errors, "eq3_gain": float(cml.config.lr_q * config.steps * o_sq.max()),
             "mean_o_sq": float(o_sq.mean())}

@@ -31,7 +31,6 @@ success rate is pooled over its seeds' trials.
 
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from collections.abc import Callable, Sequence
@@ -42,6 +41,7 @@ from cml_edge import __version__
 from cml_edge.backends import backend_spec
 from cml_edge.core.cml import CML
 from cml_edge.core.fidelity import TWIN, pool_seeds, seed_stats
+from cml_edge.core.finite import dumps
 from cml_edge.core.world import World, get_world
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
@@ -203,6 +203,6 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     result.update({"wall_time_s": time.perf_counter() - t0, "command": command,
                    "cml_edge_version": __version__})
     if out is not None:
-        atomic_write_text(Path(out) / "results.json", json.dumps(result, indent=1))
+        atomic_write_text(Path(out) / "results.json", dumps(result, indent=1))
         result["out"] = str(out)
     return result

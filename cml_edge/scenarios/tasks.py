@@ -26,6 +26,7 @@ import copy
 from typing import Any
 
 from cml_edge.core.cml import CML
+from cml_edge.core.finite import check_weights
 from cml_edge.core.world import PATH, get_world
 from cml_edge.costs.ledger import cost_model, energy_pj, technology
 
@@ -66,6 +67,7 @@ def scenario_task(world: str, seed: int, backend: str, backend_options: dict[str
             aged = copy.deepcopy(cml)
             for arr in aged.arrays:
                 arr.elapse(idle_s + age)
+            check_weights(aged, "drift", seed)
             by_age[age] = (aged, copy.deepcopy(twin), 0, aged.counters())
         model, model_twin, done, base = by_age[age]
         record: dict[str, Any] = {}
