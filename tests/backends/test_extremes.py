@@ -140,12 +140,11 @@ def device_setting(draw):
 @given(device_setting())
 def test_valid_extremes_train_plan_and_navigate_to_finite_outputs(setting):
     device, options = setting
-    try:
-        DEVICES[device].make_config(**options)
-    except InputError:  # a combination another field's rule refuses (g_min >= g_max...)
-        assume(False)
     arena = GridArena.empty(8)
-    cml = CML.create(CMLConfig.for_arena(8, n_s=32), device, seed=1, **options)
+    try:
+        cml = CML.create(CMLConfig.for_arena(8, n_s=32), device, seed=1, **options)
+    except InputError:  # a combination another rule refuses before any work (g_min >=
+        assume(False)   # g_max; an exponent too fine for the initial weights, no clip_init)
     errors = train(cml, arena, TrainConfig(walks=2, steps=40), seed=1, path="direct")
     assert np.isfinite(errors).all()
     for name, W in cml.weights().items():
