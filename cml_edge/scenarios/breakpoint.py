@@ -37,7 +37,7 @@ import numpy as np
 from cml_edge.backends import DEVICES, Knob, backend_spec
 from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.errors import InputError
-from cml_edge.scenarios.registry import get
+from cml_edge.scenarios.registry import BUDGETS, get
 from cml_edge.scenarios.runner import run_scenario
 
 GRID_POINTS = 17
@@ -151,7 +151,13 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
     ``options``: the device's other settings (the knob's field overrides them); ``out``:
     each evaluation's sweep under ``out/KNOB=VALUE`` (resumable)."""
-    get(scenario)
+    scen = get(scenario)
+    if budget not in BUDGETS:
+        raise InputError(f"unknown budget {budget!r}; known: {', '.join(BUDGETS)}")
+    names = [p["name"] for _, run in scen.runs(BUDGETS[budget]) for p in run["parts"]]
+    if part is not None and part not in names:
+        raise InputError(f"scenario {scenario!r} has no part {part!r}; its parts: "
+                         f"{', '.join(dict.fromkeys(names))}")
     spec = backend_spec(backend)
     device = spec.device.name
     k = get_knob(knob, device)

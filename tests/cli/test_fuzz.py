@@ -11,9 +11,6 @@ address space is capped (:data:`SPARE_BYTES` above what the process holds), so a
 slips through fails with ``MemoryError`` instead of filling the machine. The cases naming a
 Dask scheduler (:data:`SUBPROCESS`) run in a process of their own, and a few others run
 that way too (:func:`test_the_command_itself`).
-
-:data:`PENDING` lists the cases that fail on this tree (each with why); they are marked
-``xfail(strict=True)``, so fixing one makes the suite say so.
 """
 
 from __future__ import annotations
@@ -462,51 +459,6 @@ CASES: list[tuple[str, str]] = [
     ("export-out-proc", "export {l} --format lava --out /proc/cml-edge-x"),
 ]
 
-PENDING: dict[str, str] = {
-    # sizes without an upper bound: accepted, then the work starts (or memory runs out)
-    **dict.fromkeys((
-        "train-arena-huge", "train-arena-int64", "train-walks-huge", "train-steps-huge",
-        "evaluate-trials-huge", "evaluate-arena-huge", "evaluate-max-steps-huge",
-        "navigate-max-steps-huge", "emulate-seeds-huge", "emulate-trials-huge",
-        "emulate-arena-huge", "emulate-steps-huge", "robot-train-steps-huge",
-        "robot-train-seeds-huge", "robot-evaluate-trials-huge",
-        "robot-evaluate-max-actions-huge", "dqn-train-seeds-huge", "dqn-train-steps-huge",
-        "sweep-seeds-huge", "bench-repeats-huge", "scenario-seeds-huge",
-        "device-characterize-devices-huge", "emulate-chips-huge", "scenario-chips-huge",
-    ), "no upper bound on a size or count"),
-    # device fields: finite but absurd values run (or hang in a compiled loop)
-    **dict.fromkeys((
-        "train-set-levels-huge", "train-set-levels-int64", "train-set-read-noise-1e308",
-        "train-set-g-max-1e308", "train-set-w-max-v-tiny", "emulate-set-read-noise-huge",
-        "emulate-drift-1e308", "bench-set-levels-huge", "scenario-set-levels-huge",
-    ), "device field or drift time outside a documented physical range"),
-    # conflicts that are silently resolved
-    **dict.fromkeys((
-        "train-levels-and-set-levels", "train-set-twice-differently",
-        "breakpoint-knob-also-set", "emulate-chips-on-float", "scenario-chips-on-float",
-    ), "an option given twice with different meanings is not refused"),
-    "breakpoint-range-1e308": "a --range beyond the knob's physical range is accepted",
-    "breakpoint-part-unknown": "an unknown --part is found only after the runs start",
-    # outputs checked only when written, integers beyond int64, scheduler addresses
-    **dict.fromkeys((
-        "train-out-proc", "navigate-plot-proc", "emulate-out-proc", "emulate-chips-out-proc",
-        "robot-train-out-proc", "robot-navigate-plot-proc", "dqn-train-results-proc",
-        "sweep-out-proc", "report-out-proc", "scenario-out-proc", "breakpoint-out-proc",
-        "device-characterize-out-proc", "device-characterize-plot-proc", "export-out-proc",
-        "device-characterize-out-folder", "device-characterize-out-under-file",
-        "device-characterize-plot-folder", "emulate-chips-out-file", "train-out-read-only",
-        "navigate-plot-read-only", "emulate-out-read-only", "report-out-read-only",
-    ), "an output path is checked only when written, after the work"),
-    **dict.fromkeys((
-        "emulate-first-chip-int64", "scenario-first-chip-int64", "evaluate-seed-int64",
-        "emulate-eval-seed-int64",
-    ), "an integer beyond int64 is accepted (OverflowError or work)"),
-    **dict.fromkeys((
-        "emulate-scheduler-nonsense", "sweep-scheduler-nonsense", "scenario-scheduler-nonsense",
-    ), "a scheduler address is not validated before the work"),
-}
-"""Cases that fail on this tree, each with why."""
-
 SUBPROCESS = {cid for cid, line in CASES if "--scheduler" in line}
 """Cases run in a process of their own: a Dask client a case leaves behind would outlive
 it in this one."""
@@ -604,8 +556,6 @@ def _argv(line: str, inputs: dict[str, str], tmp: Path) -> list[str]:
 
 def _param(cid: str, line: str):
     marks = []
-    if cid in PENDING:
-        marks.append(pytest.mark.xfail(strict=True, reason=PENDING[cid]))
     if cid in READ_ONLY:
         marks.append(pytest.mark.skipif(os.geteuid() == 0, reason="root writes anywhere"))
     return pytest.param(cid, line, id=cid, marks=marks)
@@ -614,7 +564,6 @@ def _param(cid: str, line: str):
 def test_the_table_is_large_and_consistent():
     ids = [cid for cid, _ in CASES]
     assert len(ids) == len(set(ids)) and len(ids) >= 150
-    assert set(PENDING) <= set(ids)
     commands = {line.split()[0] for _, line in CASES if line}
     assert commands >= {"train", "evaluate", "navigate", "emulate", "robot", "dqn", "sweep",
                         "report", "bench", "scenario", "breakpoint", "device", "export"}
