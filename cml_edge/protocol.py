@@ -17,14 +17,8 @@ from their own ``np_random``, seeded through ``reset(seed=...)`` as gymnasium re
 
 from __future__ import annotations
 
-from cml_edge.errors import InputError
-
 EVAL_SEED = 123
 """Seed of the evaluation pairs, obstacles and robot goals: every method sees the same."""
-MAX_SEED = 2**63 - 1
-"""The largest model seed: the compiled training loops carry it as an int64."""
-MAX_STREAM_SEED = 2**64 - 1
-"""The largest seed of a counter-based stream (:func:`cml_edge.jit.rng.stream_key`, a uint64)."""
 
 # random streams (one per independent use) --------------------------------------------------
 STREAM_WALK_START = 1
@@ -50,12 +44,3 @@ REWARDS = ("simplified", "tailored")
 """Eq. 6 (simplified) and Eq. 7 (tailored)."""
 R_GOAL = 100.0
 """Eq. 7's reward for reaching the goal."""
-
-
-def check_seeds(option: str, first: int, count: int = 1, largest: int = MAX_SEED) -> None:
-    """InputError naming ``option`` unless seeds ``first .. first + count - 1`` are in
-    ``0 .. largest``."""
-    last = first + count - 1
-    if first < 0 or last > largest:
-        reach = "" if count == 1 else f" with {count} seeds reaches {last}, which"
-        raise InputError(f"{option} {first}{reach} is out of range (allowed: 0..{largest})")

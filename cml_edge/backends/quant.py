@@ -302,6 +302,17 @@ SIGMOID_LUT_MAX_ERROR = (0.25 * 0.5 / (1 << SIGMOID_IN_FRAC_BITS)
                          + 1.0 / (1.0 + math.exp(8.0 - 1.0 / (1 << SIGMOID_IN_FRAC_BITS))))
 
 
+def sigmoid_entry(z: float) -> int:
+    """The :data:`SIGMOID_LUT` entry for z: z in steps of 1/16 (nearest, ties up), clipped
+    to [-8, 8 - 1/16]; InputError if z is NaN. Plain Python, the devices' references'
+    lookup (:func:`sigmoid_lut` is the compiled one)."""
+    if z != z:
+        raise InputError("non-finite input to the sigmoid lookup table")
+    half = 1 << (SIGMOID_INDEX_BITS - 1)
+    t = min(max(math.floor(z * (1 << SIGMOID_IN_FRAC_BITS) + 0.5), -half), half - 1)
+    return int(SIGMOID_LUT[t + half])
+
+
 @kernel
 def sigmoid_lut(z):
     """sigmoid(z) from :data:`SIGMOID_LUT` (module docstring); ValueError if z is NaN."""

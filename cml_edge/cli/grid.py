@@ -46,7 +46,7 @@ from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summari
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.io.files import atomic_write, writable_file, writable_folder
-from cml_edge.protocol import EVAL_SEED, check_seeds
+from cml_edge.protocol import EVAL_SEED
 
 
 def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
@@ -185,7 +185,6 @@ def add_parsers(sub) -> None:
 
 
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
-    check_seeds("--seed", args.seed)
     writable_file(args.out, "--out")
     options = backend_options(args)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)

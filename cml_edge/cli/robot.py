@@ -33,7 +33,7 @@ from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.errors import InputError
 from cml_edge.io.files import writable_file
-from cml_edge.protocol import EVAL_SEED, MAX_STREAM_SEED, check_seeds
+from cml_edge.protocol import EVAL_SEED
 from cml_edge.robot.models import (
     asdict_options,
     evaluate_models,
@@ -164,7 +164,6 @@ def _make_sim(name: str, robot: RobotConfig, args: argparse.Namespace,
 
 
 def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
-    check_seeds("--seed", args.seed, args.seeds)
     writable_file(args.out, "--out")
     options = backend_options(args)
     robot = RobotConfig()
@@ -193,7 +192,6 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _load_for_planning(args: argparse.Namespace):
-    check_seeds("--eval-seed", args.eval_seed, largest=MAX_STREAM_SEED)
     if getattr(args, "plot", None):
         writable_file(args.plot, "--plot")
     files = args.model if isinstance(args.model, list) else [args.model]

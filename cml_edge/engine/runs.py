@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from cml_edge import __version__
+from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write_text
 
@@ -104,5 +105,5 @@ def open_run(out: str | Path, settings: dict[str, Any], tasks: Sequence[Any],
         if diff or doc.get("fn") != task.fn:
             raise InputError(f"the run folder {str(out)!r} holds task {task.key} of another "
                              f"run ({diff or 'its function'}); give --restart to start over")
-    atomic_write_text(path, json.dumps({"format": RUN_FORMAT, "cml_edge_version": __version__,
-                                        "settings": settings}, indent=1))
+    atomic_write_text(path, dumps({"format": RUN_FORMAT, "cml_edge_version": __version__,
+                                   "settings": settings}, indent=1))

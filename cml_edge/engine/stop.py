@@ -62,6 +62,32 @@ def stop_signal(exc: KeyboardInterrupt) -> signal.Signals:
     return signal.Signals(exc.signum if isinstance(exc, Stopped) else signal.SIGINT)
 
 
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM are noted while inside and raised on leaving. Around forking pool
+    workers: a signal handled while ``fork`` runs its hooks would be swallowed ("Exception
+    ignored in ..."). A worker forked inside that is signalled before
+    :func:`worker_init` exits at once, with 128 + the signal's number."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    owner, noted = os.getpid(), []
+
+    def note(signum: int, frame: object) -> None:
+        if os.getpid() != owner:
+            os._exit(128 + signum)
+        noted.append(signum)
+
+    old = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+    if noted:
+        raise Stopped(noted[0]) if noted[0] == signal.SIGTERM else KeyboardInterrupt
+
+
 def worker_init(parent: int) -> None:
     """Initializer of a pool worker whose parent has process id ``parent`` (module
     docstring)."""

@@ -46,7 +46,7 @@ from typing import Any
 
 from cml_edge.core.finite import dumps
 from cml_edge.engine.runs import checksum, open_run, plain
-from cml_edge.engine.stop import worker_init
+from cml_edge.engine.stop import signals_held, worker_init
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
 
@@ -197,7 +197,8 @@ def _run_pool(todo: list[Task], workers: int,
     pool = ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
                                initargs=(os.getpid(),))
     try:
-        futures = [pool.submit(run_task, task) for task in todo]
+        with signals_held():  # the workers are forked here (module stop)
+            futures = [pool.submit(run_task, task) for task in todo]
         for fut in as_completed(futures):
             finish(*fut.result())
     except BaseException:

@@ -150,3 +150,30 @@ def test_a_stopped_training_ends_within_seconds(sig, tmp_path):
         _end(proc, [])
     assert code == 128 + getattr(signal, sig) and list(tmp_path.iterdir()) == []
     assert "stopped by" in proc.stderr.read()
+
+
+def test_a_signal_while_workers_fork_is_raised_after_and_ends_the_fork():
+    """Inside ``signals_held`` a signal is noted, not lost in a fork hook, and raised on
+    leaving; a child forked inside and signalled before it is a worker exits 128 + sig,
+    silently."""
+    code = ("import os, signal, sys, time\n"
+            "from cml_edge.engine.stop import Stopped, signals_held, stop_on_signals\n"
+            "with stop_on_signals():\n"
+            "    try:\n"
+            "        with signals_held():\n"
+            "            pid = os.fork()\n"
+            "            if pid == 0:\n"
+            "                time.sleep(30)\n"
+            "                os._exit(0)\n"
+            "            time.sleep(0.5)\n"
+            "            os.kill(pid, signal.SIGTERM)\n"
+            "            os.kill(os.getpid(), signal.SIGTERM)\n"
+            "            child = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])\n"
+            "            print('inside', child)\n"
+            "    except Stopped as exc:\n"
+            "        print('raised', exc.signum)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=60)
+    assert out.stdout.split() == ["inside", str(128 + signal.SIGTERM), "raised",
+                                  str(int(signal.SIGTERM))], out
+    assert out.stderr == ""

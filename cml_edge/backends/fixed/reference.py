@@ -40,12 +40,10 @@ from cml_edge.backends.fixed.kernels import (
 from cml_edge.backends.quant import (
     NARROW,
     NEAREST,
-    SIGMOID_IN_FRAC_BITS,
-    SIGMOID_INDEX_BITS,
-    SIGMOID_LUT,
     SIGMOID_OUT_BITS,
     STOCHASTIC,
     SaturationError,
+    sigmoid_entry,
 )
 from cml_edge.errors import InputError
 from cml_edge.jit.rng import uniform
@@ -266,13 +264,6 @@ def commit(state: State) -> None:
 
 
 def sigmoid(state: State, z: np.ndarray) -> np.ndarray:
-    """sigmoid(z) from the 256-entry table: z in steps of 1/16 (nearest, ties up), clipped
-    to [-8, 8 - 1/16], the entry a 16-bit fraction (``quant.SIGMOID_LUT``)."""
-    half = 1 << (SIGMOID_INDEX_BITS - 1)
-    out = []
-    for v in z:
-        if v != v:
-            raise InputError("non-finite input to the sigmoid lookup table")
-        t = min(max(math.floor(v * (1 << SIGMOID_IN_FRAC_BITS) + 0.5), -half), half - 1)
-        out.append(math.ldexp(float(SIGMOID_LUT[t + half]), -SIGMOID_OUT_BITS))
-    return np.array(out)
+    """sigmoid(z) from the 256-entry table (``quant.sigmoid_entry``), the entry a 16-bit
+    fraction."""
+    return np.array([math.ldexp(float(sigmoid_entry(v)), -SIGMOID_OUT_BITS) for v in z])

@@ -58,11 +58,9 @@ from cml_edge.backends.loihi2.kernels import (
     WEIGHT_WRITES,
 )
 from cml_edge.backends.quant import (
-    SIGMOID_IN_FRAC_BITS,
-    SIGMOID_INDEX_BITS,
-    SIGMOID_LUT,
     SIGMOID_OUT_BITS,
     SaturationError,
+    sigmoid_entry,
 )
 from cml_edge.errors import InputError
 from cml_edge.jit.rng import uniform
@@ -333,15 +331,8 @@ def commit(state: State) -> None:
 
 
 def sigmoid(state: State, z: np.ndarray) -> np.ndarray:
-    """sigmoid(z) from the 256-entry table (z in steps of 1/16, nearest, ties up, clipped
-    to [-8, 8 - 1/16]), sent as an unsigned payload of min(num_message_bits, 16) bits."""
+    """sigmoid(z) from the 256-entry table (``quant.sigmoid_entry``), sent as an unsigned
+    payload of min(num_message_bits, 16) bits."""
     bits = min(state.params.num_message_bits, SIGMOID_OUT_BITS)
-    half = 1 << (SIGMOID_INDEX_BITS - 1)
-    out = []
-    for v in z:
-        if v != v:
-            raise InputError("non-finite input to the sigmoid lookup table")
-        t = min(max(math.floor(v * (1 << SIGMOID_IN_FRAC_BITS) + 0.5), -half), half - 1)
-        out.append(math.ldexp(float(int(SIGMOID_LUT[t + half]) >> (SIGMOID_OUT_BITS - bits)),
-                              -bits))
-    return np.array(out)
+    return np.array([math.ldexp(float(sigmoid_entry(v) >> (SIGMOID_OUT_BITS - bits)), -bits)
+                     for v in z])
