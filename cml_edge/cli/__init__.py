@@ -7,6 +7,7 @@
 - :mod:`~cml_edge.cli.scenario`: ``scenario``, ``breakpoint``;
 - :mod:`~cml_edge.cli.device`: ``device characterize``;
 - :mod:`~cml_edge.cli.export`: ``export`` (a loihi2 model's weights for Lava);
+- :mod:`~cml_edge.cli.lava`: ``lava verify`` (a loihi2 model run in Lava itself);
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the
   synaptic-array options);
 - :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
@@ -32,7 +33,7 @@ import argparse
 import sys
 
 from cml_edge import __version__
-from cml_edge.cli import device, dqn, export, grid, robot, scenario, tools
+from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
 from cml_edge.cli.args import limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
@@ -41,7 +42,7 @@ from cml_edge.engine import limits
 from cml_edge.engine.stop import stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
-COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export)
+COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export, lava)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -44,7 +44,7 @@ from cml_edge.backends.loihi2.config import (
     make_config,
 )
 from cml_edge.backends.loihi2.lava import (
-    SIGN_MODE_CODES,
+    LAVA_SIGN_MODES,
     SIGN_MODES,
     clip_weights,
     float_scale,
@@ -207,24 +207,34 @@ class Loihi2Array(SynapticArray):
         return np.ldexp(extra, self.exponent - self.scale_exp - kern.FRAC_BITS)
 
     def to_lava(self) -> dict[str, Any]:
-        """What Lava's ``Dense`` takes to hold these weights (module docstring):
+        """What Lava's ``Dense`` takes to hold exactly these weights (module docstring):
 
         - ``weights``: the integers as ``Dense(weights=...)`` takes them (shape (out, in));
           its bit-accurate model then applies ``clip_weights`` and ``truncate_weights``;
-        - ``weight_exp``, ``num_weight_bits``, ``sign_mode`` (Lava's ``SignMode`` value: 1
-          mixed, 2 excitatory, 3 inhibitory) and ``num_message_bits``;
-        - ``mantissa``: the ``num_weight_bits`` mantissas (``optimize_weight_bits(...,
+        - ``num_weight_bits``: the array's programmed width where ``truncate_weights``
+          keeps every weight at it; else the narrowest width up to 9 (mixed; 8 otherwise)
+          that does: learned weights use the 9-bit range the learning engine writes, and
+          in mixed mode Lava drops 8 - num_weight_bits + 1 low bits, none at 9;
+        - ``weight_exp``, ``sign_mode`` (the name of Lava's ``SignMode`` member: ``MIXED``,
+          ``EXCITATORY`` or ``INHIBITORY``; pass ``SignMode[name]``: ``Dense`` compares the
+          member, and a bare integer makes it clip every negative weight) and
+          ``num_message_bits``;
+        - ``mantissa``: the programmed width's mantissas (``optimize_weight_bits(...,
           loihi2=True)``'s form), ``scale_exp`` (a weight w is the float
-          w 2^(weight_exp - scale_exp)), and ``lsb_truncated``: how many weights Lava's
-          ``truncate_weights`` would change at the Dense's first step (odd learned weights
-          in mixed mode; 0 for freshly programmed ones).
+          w 2^(weight_exp - scale_exp)), and ``lsb_truncated``: how many weights
+          ``truncate_weights`` changes at the exported ``num_weight_bits`` (0: a ``Dense``
+          built from these values holds the weights exactly).
         """
         p = self.state.params
         mode = SIGN_MODES[p.sign_mode]
         w = self.state.w.astype(np.int32)
-        truncated = truncate_weights(w, mode, p.nb)
-        return {"weights": w, "weight_exp": int(p.exp), "num_weight_bits": int(p.nb),
-                "sign_mode": SIGN_MODE_CODES[mode], "num_message_bits":
+        nb = int(p.nb)
+        top = 9 if mode == "mixed" else 8
+        while nb < top and (truncate_weights(w, mode, nb) != w).any():
+            nb += 1
+        truncated = truncate_weights(w, mode, nb)
+        return {"weights": w, "weight_exp": int(p.exp), "num_weight_bits": nb,
+                "sign_mode": LAVA_SIGN_MODES[mode], "num_message_bits":
                 int(p.num_message_bits), "mantissa": self.mantissa.astype(np.int32),
                 "scale_exp": int(p.scale_exp),
                 "lsb_truncated": int(np.count_nonzero(truncated != w))}
@@ -262,8 +272,10 @@ class Loihi2Array(SynapticArray):
 def lava_description(arr: Loihi2Array, name: str) -> dict[str, Any]:
     """The JSON description of one matrix for a Lava user (``cml-edge export``)."""
     d = arr.to_lava()
-    mode = {1: "MIXED", 2: "EXCITATORY", 3: "INHIBITORY"}[d["sign_mode"]]
     rows, cols = arr.shape
+    kept = ("a Dense built from these values holds every weight exactly" if not
+            d["lsb_truncated"] else f"truncate_weights changes {d['lsb_truncated']} "
+            "weights at this num_weight_bits")
     out = {
         "matrix": name, "shape": [rows, cols], "file": f"{name}.npz",
         "dense": {"weights": f"np.load('{name}.npz')['weights']",
@@ -271,21 +283,20 @@ def lava_description(arr: Loihi2Array, name: str) -> dict[str, Any]:
                   "sign_mode": d["sign_mode"], "num_message_bits": d["num_message_bits"]},
         "build": (f"Dense(weights=np.load('{name}.npz')['weights'], weight_exp="
                   f"{d['weight_exp']}, num_weight_bits={d['num_weight_bits']}, "
-                  f"sign_mode=SignMode({d['sign_mode']}), num_message_bits="
-                  f"{d['num_message_bits']})  # SignMode.{mode}; from lava.proc.dense."
-                  "process import Dense; from lava.utils.weightutils import SignMode"),
+                  f"sign_mode=SignMode.{d['sign_mode']}, num_message_bits="
+                  f"{d['num_message_bits']})  # from lava.proc.dense.process import Dense; "
+                  "from lava.utils.weightutils import SignMode"),
         "scale_exp": d["scale_exp"],
         "float_weights": f"weights * 2**({d['weight_exp']} - {d['scale_exp']})",
         "read": ("x (float, length in) -> payloads s = rint(x * 2**-e) with one power-of-two "
                  "scale e per vector, |s| <= 2**(num_message_bits - 1) - 1; the Dense's "
-                 "a_out = (weights @ s) >> -weight_exp (weight_exp < 0; << otherwise); the "
-                 "neuron's 24-bit input is a_out << 6 (LIF with du=4095); W x = a_out * "
-                 "2**(e - scale_exp)"),
+                 "a_out = (weights @ s) >> -weight_exp (weight_exp < 0; << otherwise; "
+                 "an int32 dot product); the neuron's input is a_out << 6 (LIF with "
+                 "du=4095; u past +-2^23 gets one 2^24 correction); W x = u * "
+                 "2**(e - scale_exp - 6)"),
         "lsb_truncated": d["lsb_truncated"],
-        "lsb_note": ("Dense's bit-accurate model applies truncate_weights at its first "
-                     "step: in mixed mode it floors odd weights to even ones, so a Lava "
-                     f"Dense built from these weights differs from cml-edge's on the "
-                     f"{d['lsb_truncated']} odd (learned) weights by one unit"),
+        "lsb_note": (f"Dense's bit-accurate model applies truncate_weights(weights, "
+                     f"sign_mode, {d['num_weight_bits']}) at its first step: {kept}"),
     }
     if name == "W_v":
         out["transposed_read"] = ("planning reads u = W_v^T (s* - s): build a second Dense "

@@ -571,18 +571,36 @@ def _add_exact(state, post, pre, lr, tally):
 
 
 @kernel
+def engine_traces(post, pre, rows, cols, lr, gain_exp, X, Y):
+    """(m, k): the rule literal's mantissa m and the term's shift k of the update
+    lr post pre^T (module docstring, steps 1-2), with the traces in Y[:rows] (post) and
+    X[:cols] (pre); ``gain_exp`` is scale_exp - weight_exp. Where k would be negative,
+    the traces are formed coarser (:func:`coarsen`) and k is 0. The rule this is in
+    Lava's syntax: ``m * 2^(k - 7) * x0 * x1 * y1``."""
+    m, e_lr = lr_literal(lr)
+    e_y = quantize_vector(post, rows, TRACE_MAX, Y)
+    e_x = quantize_vector(pre, cols, TRACE_MAX, X)
+    k = e_lr + e_x + e_y + gain_exp + PRODUCT_SHIFT + FRAC_BITS
+    if m != 0 and k < 0:
+        cx, cy = coarsen(-k, X, cols, Y, rows)
+        if cx > 0:
+            quantize_at(pre, cols, e_x + cx, X)
+        if cy > 0:
+            quantize_at(post, rows, e_y + cy, Y)
+        k = 0
+    return m, k
+
+
+@kernel
 def loihi2_outer_update(state, post, pre, lr, defer):
     w = state.w
     p = state.params
     rows, cols = w.shape
     c = state.counters
     c[OUTER_UPDATES] += 1
-    m, e_lr = lr_literal(lr)
     Y = state.yq
     X = state.xq
-    e_y = quantize_vector(post, rows, TRACE_MAX, Y)
-    e_x = quantize_vector(pre, cols, TRACE_MAX, X)
-    k = e_lr + e_x + e_y + p.scale_exp - p.exp + PRODUCT_SHIFT + FRAC_BITS
+    m, k = engine_traces(post, pre, rows, cols, lr, p.scale_exp - p.exp, X, Y)
     tally = state.tally
     tally[0] = 0
     tally[1] = 0
@@ -591,13 +609,6 @@ def loihi2_outer_update(state, post, pre, lr, defer):
         if lr != 0.0:
             c[RNG_DRAWS] += _add_exact(state, post, pre, lr, tally)
         m = 0
-    elif m != 0 and k < 0:
-        cx, cy = coarsen(-k, X, cols, Y, rows)
-        if cx > 0:
-            quantize_at(pre, cols, e_x + cx, X)
-        if cy > 0:
-            quantize_at(post, rows, e_y + cy, Y)
-        k = 0
     if m != 0:
         _add_terms(state.acc, m, X, cols, Y, rows, k, tally)
     # tally[:3]: terms formed, product saturations, accumulator saturations

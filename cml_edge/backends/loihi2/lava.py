@@ -29,6 +29,10 @@ from cml_edge.errors import InputError
 SIGN_MODES = ("mixed", "excitatory", "inhibitory")
 SIGN_MODE_CODES = {"mixed": 1, "excitatory": 2, "inhibitory": 3}
 """Lava's ``SignMode`` values (``weightutils.SignMode``): what ``SignMode(code)`` takes."""
+LAVA_SIGN_MODES = {"mixed": "MIXED", "excitatory": "EXCITATORY", "inhibitory": "INHIBITORY"}
+"""The names of Lava's ``SignMode`` members (``SignMode[name]``): what an export carries.
+``Dense`` compares its ``sign_mode`` with the members, so a bare code (1) is not MIXED there
+and clips every negative weight."""
 MAX_NUM_WEIGHT_BITS = 8  # Lava: W_WEIGHTS_U = 8, the default num_weight_bits
 
 STANDARD_RANGE = {"mixed": (-128, 127), "excitatory": (0, 255), "inhibitory": (-255, 0)}
@@ -204,6 +208,6 @@ def float_scale(W: np.ndarray, sign_mode: str) -> int:
         S -= 1
 
 
-__all__ = ["MAX_NUM_WEIGHT_BITS", "SIGN_MODES", "SIGN_MODE_CODES", "STANDARD_RANGE",
-           "OptimizedWeights", "clip_weights", "determine_sign_mode", "float_scale",
-           "optimize_weight_bits", "truncate_weights", "weight_limits"]
+__all__ = ["LAVA_SIGN_MODES", "MAX_NUM_WEIGHT_BITS", "SIGN_MODES", "SIGN_MODE_CODES",
+           "STANDARD_RANGE", "OptimizedWeights", "clip_weights", "determine_sign_mode",
+           "float_scale", "optimize_weight_bits", "truncate_weights", "weight_limits"]

@@ -1,0 +1,258 @@
+"""Lava in the loop: a saved ``loihi2`` model run in Intel Lava 0.10.0's own CPU simulator,
+compared integer for integer with this emulation (``cml-edge lava verify``).
+
+Lava runs on Python 3.10 only: it lives in a virtual environment of its own
+(``bash scripts/lava_env.sh`` builds it in ``.lava-venv/`` at the repository root, or where
+``CML_EDGE_LAVA_VENV`` says), and this module talks to it by a subprocess and two ``.npz``
+files (:mod:`cml_edge.backends.loihi2.lava_runtime` is the other side).
+
+What is compared (:func:`verify`):
+
+- reads: for W_q, W_k, W_v and W_v^T (planning's transposed read), one-hot and random
+  vectors become graded-spike payloads as the emulation forms them; Lava's ``Dense``, built
+  from the export (:meth:`~cml_edge.backends.loihi2.array.Loihi2Array.to_lava`), gives
+  ``a_out`` and its ``LIF`` the 24-bit ``u``; each is compared with the emulation's, and
+  the emulation's float read with u 2^(e - scale_exp - 6);
+- learning: K updates of the CML's shape (a one-hot pre, the post a difference of two of
+  the matrix's columns, the model's learning rate) become the rule literal and traces as the
+  emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`); Lava's
+  ``LearningDense`` runs them one epoch each (t_epoch 1). Compared per epoch: the traces
+  the rule read (Lava decays each trace for one step with time constant 65535 before the
+  rule reads it, a stochastic rounding that can move a trace by one), the weights Lava
+  wrote against the emulation's engine arithmetic on Lava's traces with Lava's write-back
+  draws (``ConnVarRandom``: NumPy's generator seeded 2), and against the same from the
+  emulation's own traces. An epoch whose term shift is 16 or more (the emulation
+  saturates the term; Lava's rule exponent stops at 8) is not expressible and is counted.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import cml_edge
+from cml_edge.backends.loihi2 import kernels as kern
+from cml_edge.backends.loihi2.array import Loihi2Array
+from cml_edge.backends.loihi2.lava import SIGN_MODES
+from cml_edge.errors import InputError
+
+BUILD_COMMAND = "bash scripts/lava_env.sh"
+VENV_VARIABLE = "CML_EDGE_LAVA_VENV"
+RUNTIME = Path(__file__).with_name("lava_runtime.py")
+LAVA_DRAW_SEED = 2  # ConnVarRandom's seed in LearningConnectionModelBitApproximate
+LEARN_BITS = (8, 9)  # a LearningDense's num_weight_bits (other modes, mixed): at these,
+# truncate_weights keeps every weight the engine writes, whenever a process starts
+
+
+def repo_root() -> Path:
+    """The checkout this package runs from (where ``scripts/`` and ``.lava-venv/`` are)."""
+    return Path(cml_edge.__file__).resolve().parents[1]
+
+
+def venv_python() -> Path:
+    """The Lava environment's interpreter; InputError naming the build command if absent."""
+    venv = Path(os.environ.get(VENV_VARIABLE) or repo_root() / ".lava-venv")
+    python = venv / "bin" / "python"
+    if not python.exists():
+        raise InputError(f"the Lava environment is missing ({venv}): build it with "
+                         f"`{BUILD_COMMAND}` (Python 3.10, lava-nc 0.10.0)")
+    return python
+
+
+def run_lava(work: dict[str, np.ndarray], timeout: float = 1800.0) -> dict[str, np.ndarray]:
+    """Run the work ``work`` (the inputs :mod:`lava_runtime` reads) in the Lava environment;
+    its outputs. A failing run raises InputError with its last line of error output."""
+    python = venv_python()
+    with tempfile.TemporaryDirectory(prefix="cml-edge-lava-") as tmp:
+        path_in, path_out = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        np.savez(path_in, **work)
+        done = subprocess.run([str(python), "-I", str(RUNTIME), str(path_in), str(path_out)],
+                              capture_output=True, text=True, timeout=timeout)
+        if done.returncode != 0:
+            last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+            raise InputError(f"the Lava run failed: {last}")
+        with np.load(path_out) as f:
+            return {k: f[k] for k in f.files}
+
+
+def read_vectors(n: int, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` input vectors of length n: one-hots first (the CML's observations and
+    actions), then differences of two one-hots, then standard normal vectors."""
+    out = np.zeros((count, n))
+    for t in range(count):
+        if t < min(n, count // 2):
+            out[t, t] = 1.0
+        elif t < 3 * count // 4:
+            a, b = rng.choice(n, 2, replace=n < 2)
+            out[t, a] += 1.0
+            out[t, b] -= 1.0
+        else:
+            out[t] = rng.standard_normal(n)
+    return out
+
+
+def _payloads(arr: Loihi2Array, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The payloads and scales of the rows of X as the emulation encodes them."""
+    p = arr.state.params
+    pay = np.zeros(X.shape, np.int64)
+    scales = np.zeros(len(X), np.int64)
+    for t, x in enumerate(X):
+        scales[t] = kern.encode(x, len(x), p.msg_qmax, p.l1_max, p.payload_scale == kern.SAFE,
+                                pay[t])
+    return pay, scales
+
+
+def _read_work(arr: Loihi2Array, name: str, X: np.ndarray, transposed: bool) -> dict:
+    d = arr.to_lava()
+    W = d["weights"].T if transposed else d["weights"]
+    pay, _ = _payloads(arr, X)
+    return {f"{name}/weights": W, f"{name}/payloads": pay,
+            f"{name}/params": np.array([d["weight_exp"], d["num_weight_bits"],
+                                        d["num_message_bits"]]),
+            f"{name}/sign_mode": np.array(d["sign_mode"])}
+
+
+def _compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.ndarray,
+                   u: np.ndarray) -> dict[str, int]:
+    p = arr.state.params
+    W = arr.state.w.astype(np.int64)
+    W = W.T if transposed else W
+    pay, scales = _payloads(arr, X)
+    same_a = same_u = same_read = wraps = 0
+    for t, x in enumerate(X):
+        sums = W @ pay[t]
+        a = np.array([s >> -p.exp if p.exp < 0 else s << p.exp for s in sums])
+        mine = [kern.neuron_input(int(s), int(p.exp)) for s in sums]
+        wraps += sum(w for _, w in mine)
+        same_a += bool((a == a_out[t]).all())
+        same_u += bool((np.array([v for v, _ in mine]) == u[t]).all())
+        read = arr.rmatvec(x) if transposed else arr.matvec(x)
+        lava_read = np.ldexp(u[t].astype(np.float64),
+                             int(scales[t]) - int(p.scale_exp) - kern.ACT_SHIFT)
+        same_read += bool((read == lava_read).all())
+    return {"vectors": len(X), "a_out_equal": same_a, "u_equal": same_u,
+            "read_equal": same_read, "neuron_wraps": wraps}
+
+
+def _updates(arr: Loihi2Array, lr: float, epochs: int, rng: np.random.Generator):
+    """The rule literal (m, k), pre traces X and post traces Y of ``epochs`` CML-shaped
+    updates (module docstring), as the emulation forms them."""
+    rows, cols = arr.shape
+    p = arr.state.params
+    Wf = arr.to_float()
+    rule = np.zeros((epochs, 2), np.int64)
+    Xs = np.zeros((epochs, cols), np.int64)
+    Ys = np.zeros((epochs, rows), np.int64)
+    for t in range(epochs):
+        pre = np.zeros(cols)
+        pre[rng.integers(cols)] = 1.0
+        a, b = rng.integers(cols, size=2)
+        post = Wf[:, a] - Wf[:, b] + 0.01 * rng.standard_normal(rows)
+        m, k = kern.engine_traces(post, pre, rows, cols, float(lr),
+                                  int(p.scale_exp) - int(p.exp), Xs[t], Ys[t])
+        rule[t] = (m, k)
+    return rule, Xs, Ys
+
+
+def _engine_epoch(w: np.ndarray, mode: int, m: int, k: int, X: np.ndarray, Y: np.ndarray,
+                  r: float) -> np.ndarray:
+    """One epoch of the emulation's engine arithmetic (kernels: engine_term, accumulate,
+    write_back) on weights w with the pre traces X (x0: X > 0), post traces Y and draw r."""
+    lo, hi = (-256, 255) if mode == kern.MIXED else ((0, 255) if mode == kern.EXCITATORY
+                                                     else (-255, 0))
+    out = w.copy()
+    for i in range(w.shape[0]):
+        for j in range(w.shape[1]):
+            a = int(w[i, j]) << kern.FRAC_BITS
+            if X[j] > 0:
+                term, _ = kern.engine_term(m, int(X[j]), int(Y[i]), k)
+                a, _ = kern.accumulate(a, term)
+            out[i, j], _, _ = kern.write_back(a, r, mode, lo, hi)
+    return out
+
+
+def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str) -> dict[str, Any]:
+    mode = int(arr.state.params.sign_mode)
+    draws = np.random.default_rng(LAVA_DRAW_SEED).random(int(got[f"{name}/draw"].max()) + 1)
+    w_lava = arr.state.w.astype(np.int64)
+    w_own = w_lava.copy()
+    same_traces = same_engine = same_weights = 0
+    for t in range(len(rule)):
+        m, k = (int(v) for v in rule[t])
+        x1 = np.where(Xs[t] > 0, got[f"{name}/x1"][t], 0)
+        y1 = got[f"{name}/y1"][t]
+        r = float(draws[int(got[f"{name}/draw"][t])])
+        lava_w = got[f"{name}/weights"][t]
+        same_traces += bool((x1 == Xs[t]).all() and (y1 == Ys[t]).all())
+        same_engine += bool((_engine_epoch(w_lava, mode, m, k, x1, y1, r) == lava_w).all())
+        w_own = _engine_epoch(w_own, mode, m, k, Xs[t], Ys[t], r)
+        same_weights += bool((w_own == lava_w).all())
+        w_lava = lava_w
+    return {"epochs": len(rule), "traces_equal": same_traces, "engine_equal": same_engine,
+            "weights_equal": same_weights}
+
+
+def verify(model: str, epochs: int = 20, reads: int = 16, seed: int = 0) -> dict[str, Any]:
+    """Run ``model`` (a saved loihi2 model) in Lava and compare (module docstring)."""
+    from cml_edge.core.model_file import MATRICES, load_model
+
+    cml, _ = load_model(model)
+    if any(not isinstance(arr, Loihi2Array) for arr in cml.arrays):
+        raise InputError(f"{model!r} is a {cml.backend} model; lava verify runs loihi2 models "
+                         "(allowed: a model trained with --backend loihi2)")
+    venv_python()  # before any work
+    rng = np.random.default_rng(seed)
+    lrs = dict(zip(MATRICES, (cml.config.lr_q, cml.config.lr_k, cml.config.lr_v)))
+    work: dict[str, Any] = {}
+    plan_reads = []
+    for name, arr in zip(MATRICES, cml.arrays):
+        plan_reads.append((name, arr, read_vectors(arr.shape[1], reads, rng), False))
+    W_v = cml.arrays[2]
+    plan_reads.append(("W_v^T", W_v, read_vectors(W_v.shape[0], reads, rng), True))
+    for name, arr, X, transposed in plan_reads:
+        work.update(_read_work(arr, name, X, transposed))
+    work["reads"] = np.array([n for n, *_ in plan_reads])
+    plan_learn, skipped = [], {}
+    for name, arr in zip(MATRICES, cml.arrays):
+        rule, Xs, Ys = _updates(arr, lrs[name], epochs, rng)
+        ok = (rule[:, 0] != 0) & (rule[:, 1] < kern.MAX_TERM_SHIFT)
+        skipped[name] = int((~ok).sum())
+        rule, Xs, Ys = rule[ok], Xs[ok], Ys[ok]
+        if not len(rule):
+            continue
+        d = arr.to_lava()
+        work.update({f"{name}/learn/weights": d["weights"],
+                     f"{name}/learn/sign_mode": np.array(d["sign_mode"]),
+                     f"{name}/learn/params": np.array([d["weight_exp"], LEARN_BITS[
+                         d["sign_mode"] == "MIXED"]]),
+                     f"{name}/learn/X": Xs, f"{name}/learn/Y": Ys,
+                     f"{name}/learn/rule": rule})
+        plan_learn.append((name, arr, rule, Xs, Ys))
+    work["learn"] = np.array([f"{n}/learn" for n, *_ in plan_learn])
+    got = run_lava(work)
+    result_reads = {name: _compare_reads(arr, X, transposed, got[f"{name}/a_out"],
+                                         got[f"{name}/u"])
+                    for name, arr, X, transposed in plan_reads}
+    result_learn = {}
+    for name, arr, rule, Xs, Ys in plan_learn:
+        result_learn[name] = _compare_learning(arr, rule, Xs, Ys, got, f"{name}/learn")
+    for name in MATRICES:
+        result_learn.setdefault(name, {"epochs": 0, "traces_equal": 0, "engine_equal": 0,
+                                       "weights_equal": 0})
+        result_learn[name]["not_expressible"] = skipped[name]
+    exact = all(r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"]
+                for r in result_reads.values()) and all(
+        r["engine_equal"] == r["epochs"] for r in result_learn.values())
+    return {"model": str(model), "lava": "lava-nc 0.10.0, Loihi2SimCfg(select_tag='fixed_pt')",
+            "seed": seed, "reads": result_reads, "learning": result_learn,
+            "sign_modes": sorted({SIGN_MODES[int(a.state.params.sign_mode)]
+                                  for a in cml.arrays}),
+            "bit_exact": bool(exact)}
+
+
+__all__ = ["BUILD_COMMAND", "read_vectors", "run_lava", "venv_python", "verify"]
