@@ -2,7 +2,7 @@
 # Build the Python 3.10 virtual environment that runs Intel Lava 0.10.0 (lava-nc), used by
 # `cml-edge lava verify` and the tests marked `lava`. Idempotent: a venv that already imports
 # lava is left as it is. Location: $CML_EDGE_LAVA_VENV, else .lava-venv/ at the repository root.
-# Usage: bash scripts/lava_env.sh
+# Usage: bash scripts/lava_env.sh   (exit 3: no Python 3.10 interpreter on this machine)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 venv="${CML_EDGE_LAVA_VENV:-$root/.lava-venv}"
@@ -25,8 +25,9 @@ find_python310() {
   return 1
 }
 if ! py310="$(find_python310)"; then
-  echo "lava venv: no Python 3.10 interpreter found (python3.10, pyenv 3.10, ~/.pyenv/versions/3.10*)" >&2
-  exit 1
+  echo "lava venv: no Python 3.10 interpreter found (python3.10, pyenv 3.10," \
+    "~/.pyenv/versions/3.10*)" >&2
+  exit 3
 fi
 "$py310" -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet --upgrade pip

@@ -107,7 +107,7 @@ def _payloads(arr: Loihi2Array, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pay, scales
 
 
-def _read_work(arr: Loihi2Array, name: str, X: np.ndarray, transposed: bool) -> dict:
+def read_work(arr: Loihi2Array, name: str, X: np.ndarray, transposed: bool) -> dict:
     d = arr.to_lava()
     W = d["weights"].T if transposed else d["weights"]
     pay, _ = _payloads(arr, X)
@@ -117,7 +117,7 @@ def _read_work(arr: Loihi2Array, name: str, X: np.ndarray, transposed: bool) -> 
             f"{name}/sign_mode": np.array(d["sign_mode"])}
 
 
-def _compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.ndarray,
+def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.ndarray,
                    u: np.ndarray) -> dict[str, int]:
     p = arr.state.params
     W = arr.state.w.astype(np.int64)
@@ -215,7 +215,7 @@ def verify(model: str, epochs: int = 20, reads: int = 16, seed: int = 0) -> dict
     W_v = cml.arrays[2]
     plan_reads.append(("W_v^T", W_v, read_vectors(W_v.shape[0], reads, rng), True))
     for name, arr, X, transposed in plan_reads:
-        work.update(_read_work(arr, name, X, transposed))
+        work.update(read_work(arr, name, X, transposed))
     work["reads"] = np.array([n for n, *_ in plan_reads])
     plan_learn, skipped = [], {}
     for name, arr in zip(MATRICES, cml.arrays):
@@ -235,7 +235,7 @@ def verify(model: str, epochs: int = 20, reads: int = 16, seed: int = 0) -> dict
         plan_learn.append((name, arr, rule, Xs, Ys))
     work["learn"] = np.array([f"{n}/learn" for n, *_ in plan_learn])
     got = run_lava(work)
-    result_reads = {name: _compare_reads(arr, X, transposed, got[f"{name}/a_out"],
+    result_reads = {name: compare_reads(arr, X, transposed, got[f"{name}/a_out"],
                                          got[f"{name}/u"])
                     for name, arr, X, transposed in plan_reads}
     result_learn = {}
@@ -255,4 +255,5 @@ def verify(model: str, epochs: int = 20, reads: int = 16, seed: int = 0) -> dict
             "bit_exact": bool(exact)}
 
 
-__all__ = ["BUILD_COMMAND", "read_vectors", "run_lava", "venv_python", "verify"]
+__all__ = ["BUILD_COMMAND", "compare_reads", "read_vectors", "read_work", "run_lava",
+           "venv_python", "verify"]

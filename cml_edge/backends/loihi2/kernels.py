@@ -17,13 +17,14 @@ Read, W x (and W^T y the same way on the same weights: the Dense of W^T):
 2. the dendritic sum over the nonzero payloads (event-driven), exact in int64, then
    shifted by the weight exponent as ``AbstractPyDenseModelBitAcc.run_spk`` does
    (``>> -E``, a floor, or ``<< E``): the Dense's a_out;
-3. the neuron's input: a_out << 6 into the 24-bit state u, as ``PyLifModelBitAcc``
-   adds its input to u (with ``du`` = 4095 the current decays fully each step, so u is
-   exactly the input), wrapped into (-2^23, 2^23] when it overflows, counted
-   (``neuron_wraps``), or raising in strict mode (:func:`wrap24`). Lava's model applies
-   one 2^24 correction; we wrap modulo 2^24, which is the same wherever that single
-   correction lands in 24 bits. The chip's dendritic accumulator width is not public:
-   the 24-bit u is the one bounded register Lava's bit-accurate models define;
+3. the neuron's input: a_out << 6 into the state u, as ``PyLifModelBitAcc`` adds its
+   input to u (with ``du`` = 4095 the current decays fully each step, so u is exactly the
+   input). Where a read overflows, it is computed as Lava computes it
+   (:func:`neuron_input`): the dot product and the shifts in int32, then one 2^24
+   correction of u (past +-2^23), counted (``neuron_wraps``), or raising in strict mode.
+   The default ``safe`` payload scale never overflows. The chip's dendritic accumulator
+   width is not public: the 24-bit u is the one bounded register Lava's bit-accurate
+   models define;
 4. the output u x 2^(e - S - 6), exactly.
 
 Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
@@ -120,7 +121,8 @@ PRODUCT_SHIFT = 3  # 7 + 7 + 4 (W_S_MANT) - 15
 MAX_TERM_SHIFT = 16  # a term shifted by >= 16 saturates the accumulator whatever it is
 LR_MANT_BITS = 3  # |m| < 8: 4-bit signed mantissa
 U_HALF = np.int64(1) << np.int64(23)  # the neuron's 24-bit u: (-2^23, 2^23]
-U_MASK = (np.int64(1) << np.int64(24)) - np.int64(1)
+I32_HALF = np.int64(1) << np.int64(31)  # NumPy int32 arithmetic: [-2^31, 2^31)
+I32_MASK = (np.int64(1) << np.int64(32)) - np.int64(1)
 ACT_SHIFT = 6  # PyLifModelBitAcc act_shift: a_in << 6
 WEIGHT_BITS = 9  # W_WEIGHTS_S: a learned weight's storage bits
 ACC_BITS = 16  # W_ACCUMULATOR_S
@@ -132,21 +134,37 @@ MIXED, EXCITATORY, INHIBITORY = 0, 1, 2  # indices in lava.SIGN_MODES
 
 # the neuron's 24-bit input ------------------------------------------------------------
 @kernel
-def wrap24(d):
-    """(u, wrapped): d into the 24-bit u's range (-2^23, 2^23] modulo 2^24, as
-    ``PyLifModelBitAcc`` wraps u (it keeps +2^23 and wraps -2^23 to +2^23); wrapped is 1
-    when u != d."""
-    if -U_HALF < d <= U_HALF:
-        return d, 0
-    return ((d + U_HALF - 1) & U_MASK) - U_HALF + 1, 1
+def int32(v):
+    """v as NumPy's int32 arithmetic holds it: wrapped modulo 2^32 into [-2^31, 2^31)."""
+    return ((v + I32_HALF) & I32_MASK) - I32_HALF
+
+
+@kernel
+def correct24(d):
+    """(u, wrapped): the one 2^24 correction ``PyLifModelBitAcc`` applies to its current:
+    d - 2^24 where d > 2^23, d + 2^24 where d <= -2^23 (so -2^23 becomes +2^23), else d;
+    wrapped is 1 when u != d. One correction only: a d beyond 3 2^23 stays beyond 24 bits,
+    as in Lava's model."""
+    if d > U_HALF:
+        return d - (U_HALF << np.int64(1)), 1
+    if d <= -U_HALF:
+        return d + (U_HALF << np.int64(1)), 1
+    return d, 0
 
 
 @kernel
 def neuron_input(total, exp):
-    """(u, wrapped): the dendritic sum ``total`` shifted by the weight exponent (Dense:
-    a floor right shift by -exp, or left by exp), then << 6 into the 24-bit u."""
-    a = total >> np.int64(-exp) if exp < 0 else total << np.int64(exp)
-    return wrap24(a << np.int64(ACT_SHIFT))
+    """(u, wrapped): the neuron's current u for the exact dendritic sum ``total``, as Lava's
+    ``Dense`` and ``PyLifModelBitAcc`` compute it in int32: the dot product wraps to
+    int32, is shifted by the weight exponent (a floor right shift by -exp, or left by exp,
+    int32), goes << 6 (int32) into the current, which gets the one correction of
+    :func:`correct24`. wrapped is 1 when u differs from the exact (total >> -exp) << 6."""
+    e = np.int64(-exp) if exp < 0 else np.int64(exp)
+    exact = (total >> e if exp < 0 else total << e) << np.int64(ACT_SHIFT)
+    t = int32(total)
+    a = t >> e if exp < 0 else int32(t << e)
+    u, _ = correct24(int32(a << np.int64(ACT_SHIFT)))
+    return u, 1 if u != exact else 0
 
 
 # inputs as graded-spike payloads ---------------------------------------------------------

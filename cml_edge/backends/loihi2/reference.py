@@ -102,13 +102,23 @@ def encode(state: State, x: np.ndarray) -> tuple[int, list[int]]:
     return e, s
 
 
+def _int32(v: int) -> int:
+    return ((v + (1 << 31)) % (1 << 32)) - (1 << 31)
+
+
 def neuron_input(total: int, exp: int) -> tuple[int, int]:
-    """(u, wrapped): the dendritic sum shifted by the weight exponent (floor), << 6 into
-    the 24-bit u, wrapped modulo 2^24 into (-2^23, 2^23] as ``PyLifModelBitAcc`` wraps."""
-    d = (total >> -exp if exp < 0 else total << exp) << ACT_SHIFT
-    if -U_HALF < d <= U_HALF:
-        return d, 0
-    return ((d + U_HALF - 1) & ((1 << 24) - 1)) - U_HALF + 1, 1
+    """(u, wrapped): as Lava's ``Dense`` and ``PyLifModelBitAcc`` compute the current in
+    int32: the sum wraps to int32, shifts by the weight exponent (floor), << 6, then one
+    2^24 correction past +-2^23; wrapped when u differs from the exact shifted sum << 6."""
+    exact = (total >> -exp if exp < 0 else total << exp) << ACT_SHIFT
+    t = _int32(total)
+    a = t >> -exp if exp < 0 else _int32(t << exp)
+    d = _int32(a << ACT_SHIFT)
+    if d > U_HALF:
+        d -= 2 * U_HALF
+    elif d <= -U_HALF:
+        d += 2 * U_HALF
+    return d, int(d != exact)
 
 
 def read(state: State, x: np.ndarray, transposed: bool) -> np.ndarray:

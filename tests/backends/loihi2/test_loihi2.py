@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from cml_edge.backends import array_from_state_dict, make_array
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2 import lava
+from cml_edge.backends.loihi2 import reference as ref
 from cml_edge.backends.loihi2.array import Loihi2Array
 from cml_edge.backends.loihi2.config import payload_l1_max
 from cml_edge.backends.quant import SaturationError, exponent_for
@@ -185,21 +186,28 @@ def test_read_floor_and_24_bit_neuron_input_golden():
     # Dense floors the sum by -weight_exp; the neuron adds it << 6 to its 24-bit u
     assert kern.neuron_input(-3, -1) == (-128, 0)  # -3 >> 1 = -2
     assert kern.neuron_input(3, -1) == (64, 0)
-    # PyLifModelBitAcc goldens (du = 4095): a_in = 2^17 keeps u = 2^23; 2^17 + 1 wraps;
-    # -2^17 gives -2^23, which Lava wraps to +2^23
+    # PyLifModelBitAcc goldens (du = 4095): a_in = 2^17 keeps u = 2^23; 2^17 + 1 gets the
+    # one 2^24 correction; -2^17 gives -2^23, which Lava corrects to +2^23
     assert kern.neuron_input(2**17, 0) == (2**23, 0)
     assert kern.neuron_input(2**17 + 1, 0) == (-8388544, 1)
     assert kern.neuron_input(-(2**17), 0) == (2**23, 1)
-    assert kern.neuron_input(5 * 2**17, 0) == (2**23, 1)  # modulo 2^24
-    assert kern.wrap24(-(2**23) + 1) == (-(2**23) + 1, 0)
+    # one correction only: 5 2^23 - 2^24 = 3 2^23 stays beyond 24 bits, as in Lava
+    assert kern.neuron_input(5 * 2**17, 0) == (3 * 2**23, 1)
+    # the shift << 6 runs in int32: 2^25 << 6 = 2^31 wraps to -2^31, then + 2^24
+    assert kern.neuron_input(2**25, 0) == (-(2**31) + 2**24, 1)
+    # the dot product runs in int32: 2^32 + 3 is 3
+    assert kern.neuron_input(2**32 + 3, 0) == (3 * 64, 1)
+    assert kern.correct24(-(2**23) + 1) == (-(2**23) + 1, 0)
+    for total, exp in ((2**40 + 12345, -1), (-(2**33) - 7, 2), (3 * 2**22, 0)):
+        assert kern.neuron_input(total, exp) == ref.neuron_input(total, exp)
 
 
 def test_full_payloads_overflow_the_neuron_input_counted_and_strict_raises():
     # w = 254, E = -1; x = 1 at 24 bits: payload 2^22, sum 254 2^22 >> 1 << 6 wraps
     arr = program([[127]], payload_scale="full")
     out = arr.matvec(np.array([1.0]))
-    d = ((254 * 2**22) >> 1) << 6
-    u = ((d + 2**23 - 1) % 2**24) - 2**23 + 1
+    d = ((254 * 2**22) >> 1) << 6  # within int32; one 2^24 correction, as Lava's LIF
+    u = d - 2**24 if d > 2**23 else d
     assert out[0] == u * 2.0 ** (-22 - 8 - 6) and arr.counters["neuron_wraps"] == 1
     safe = program([[127]])
     assert safe.matvec(np.array([1.0]))[0] == 127 / 256 and safe.counters["neuron_wraps"] == 0
@@ -465,7 +473,7 @@ def test_state_dict_round_trip_and_corruption():
 def lava_dense_read(exported, x, e):
     """Lava's bit-accurate Dense, re-stated from its source: clip_weights and
     truncate_weights at the first step, the integer dot product, the shift by weight_exp."""
-    mode = {1: "mixed", 2: "excitatory", 3: "inhibitory"}[exported["sign_mode"]]
+    mode = exported["sign_mode"].lower()
     W = lava.truncate_weights(lava.clip_weights(exported["weights"], mode), mode,
                               exported["num_weight_bits"])
     s = np.rint(np.ldexp(x, -e)).astype(np.int64)
@@ -480,7 +488,7 @@ def test_to_lava_reproduces_the_reads_in_lavas_dense():
     arr = make_array("loihi2", W, seed=0, index=1)
     d = arr.to_lava()
     assert (d["weight_exp"], d["num_weight_bits"], d["sign_mode"], d["num_message_bits"]) == \
-        (-1, 8, 1, 24)
+        (-1, 8, "MIXED", 24)
     assert d["lsb_truncated"] == 0 and (d["weights"] % 2 == 0).all()
     W_int = np.rint(np.ldexp(W, lava.float_scale(W, "mixed")))
     assert np.array_equal(d["mantissa"], lava.optimize_weight_bits(W_int, "mixed",
@@ -562,8 +570,13 @@ def test_export_writes_lava_dense_parameters(cli, tmp_path):
             for k, v in want.items():
                 assert np.array_equal(z[k], v), (name, k)
         desc = json.loads((tmp_path / "lava" / f"{name}.json").read_text())
-        assert desc["dense"]["num_message_bits"] == 16 and desc["dense"]["sign_mode"] == 1
-        assert "Dense(weights=" in desc["build"] and "SignMode(1)" in desc["build"]
+        assert desc["dense"]["num_message_bits"] == 16
+        assert desc["dense"]["sign_mode"] == "MIXED"
+        assert "Dense(weights=" in desc["build"] and "sign_mode=SignMode.MIXED" in desc["build"]
+        # learned (odd) weights are kept: mixed mode at 9 bits truncates nothing
+        odd = int(np.count_nonzero(arr.state.w % 2))
+        assert want["num_weight_bits"] == (9 if odd else 8) and want["lsb_truncated"] == 0
+        assert "holds every weight exactly" in desc["lsb_note"]
         assert desc["dense"]["weight_exp"] == want["weight_exp"]
     assert "transposed_read" in json.loads((tmp_path / "lava" / "W_v.json").read_text())
     index = json.loads((tmp_path / "lava" / "lava.json").read_text())

@@ -1,0 +1,102 @@
+"""``cml-edge lava verify``: a loihi2 model run in Intel Lava 0.10.0's own simulator.
+
+The tests marked ``lava`` build (or find) the Lava environment with ``scripts/lava_env.sh``
+and are skipped, with the reason, only where the machine has no Python 3.10.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+from cml_edge.backends.loihi2 import conformance
+from cml_edge.backends.loihi2.array import Loihi2Array
+from cml_edge.cli import main
+
+NO_PYTHON_310 = 3  # scripts/lava_env.sh's exit status where no Python 3.10 exists
+
+
+@pytest.fixture(scope="module")
+def lava_env():
+    """The Lava environment, built on first use (the script is idempotent)."""
+    script = conformance.repo_root() / "scripts" / "lava_env.sh"
+    done = subprocess.run(["bash", str(script)], capture_output=True, text=True, timeout=1800)
+    if done.returncode == NO_PYTHON_310:
+        pytest.skip(f"no Python 3.10 for Lava 0.10.0: {done.stderr.strip()}")
+    assert done.returncode == 0, done.stderr
+    return conformance.venv_python()
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory):
+    path = tmp_path_factory.mktemp("lava") / "m.npz"
+    code = main(["train", "--backend", "loihi2", "--arena", "6", "--walks", "2", "--steps",
+                 "60", "--schedule", "step", "--path", "reference", "--out", str(path)])
+    assert code == 0
+    return path
+
+
+def test_a_missing_environment_is_one_line_naming_the_build_command(model, tmp_path,
+                                                                     monkeypatch, capsys):
+    monkeypatch.setenv(conformance.VENV_VARIABLE, str(tmp_path / "none"))
+    assert main(["lava", "verify", str(model), "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1
+    assert err.startswith("cml-edge: error: the Lava environment is missing")
+    assert "bash scripts/lava_env.sh" in err
+
+
+def test_bad_counts_and_other_models_are_refused(model, tmp_path, capsys):
+    assert main(["lava", "verify", str(model), "--epochs", "1001"]) == 2
+    assert "--epochs 1001 is beyond 1000" in capsys.readouterr().err
+    int8 = tmp_path / "i.npz"
+    assert main(["train", "--backend", "int8", "--arena", "4", "--walks", "1", "--steps",
+                 "10", "--out", str(int8)]) == 0
+    capsys.readouterr()
+    assert main(["lava", "verify", str(int8)]) == 2
+    assert "lava verify runs loihi2 models" in capsys.readouterr().err
+
+
+@pytest.mark.lava
+def test_a_trained_model_reads_and_learns_in_lava_bit_for_bit(lava_env, model, capsys):
+    assert main(["lava", "verify", str(model), "--epochs", "6", "--reads", "8", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["bit_exact"] is True
+    for name in ("W_q", "W_k", "W_v", "W_v^T"):
+        r = result["reads"][name]
+        assert r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"] == 8
+    for name in ("W_q", "W_k", "W_v"):
+        r = result["learning"][name]
+        assert r["engine_equal"] == r["epochs"] == 6 - r["not_expressible"]
+        assert r["weights_equal"] >= r["traces_equal"] - 1
+
+
+@pytest.mark.lava
+def test_overflowing_reads_are_what_lava_computes(lava_env):
+    """Full-scale payloads overflow the neuron's current: one 2^24 correction, int32 sums."""
+    W = np.random.default_rng(1).normal(0, 0.1, (6, 5))
+    arr = Loihi2Array.from_float(W, payload_scale="full")
+    X = np.random.default_rng(2).uniform(-1, 1, (6, 5))
+    work = conformance.read_work(arr, "W", X, False)
+    work["reads"] = np.array(["W"])
+    got = conformance.run_lava(work)
+    r = conformance.compare_reads(arr, X, False, got["W/a_out"], got["W/u"])
+    assert r["neuron_wraps"] > 0
+    assert r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"] == 6
+
+
+@pytest.mark.lava
+def test_a_bare_sign_mode_code_clips_negative_weights_in_lava(lava_env, tmp_path):
+    """Why the export names ``SignMode``: ``Dense(sign_mode=1)`` is not MIXED there."""
+    code = ("import numpy as np\n"
+            "from lava.proc.dense.models import AbstractPyDenseModelBitAcc as M\n"
+            "from lava.utils.weightutils import SignMode, clip_weights\n"
+            "W = np.array([[-4, 6]])\n"
+            "print(clip_weights(W, 1, 8).tolist(), clip_weights(W, SignMode.MIXED, 8).tolist())")
+    done = subprocess.run([str(lava_env), "-I", "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("]] ") == ["[[0, 6", "[[-4, 6]]\n"]
