@@ -206,8 +206,11 @@ def test_full_payloads_overflow_the_neuron_input_counted_and_strict_raises():
     # w = 254, E = -1; x = 1 at 24 bits: payload 2^22, sum 254 2^22 >> 1 << 6 wraps
     arr = program([[127]], payload_scale="full")
     out = arr.matvec(np.array([1.0]))
-    d = ((254 * 2**22) >> 1) << 6  # within int32; one 2^24 correction, as Lava's LIF
-    u = d - 2**24 if d > 2**23 else d
+    # as Lava: 254 2^22 >> 1 fits int32, << 6 wraps in int32 (to -2^28), then one 2^24
+    # correction in the LIF
+    d = int(np.array([(254 * 2**22) >> 1], np.int32)[0] << np.int32(6))
+    assert d == -(2**28)
+    u = d + 2**24
     assert out[0] == u * 2.0 ** (-22 - 8 - 6) and arr.counters["neuron_wraps"] == 1
     safe = program([[127]])
     assert safe.matvec(np.array([1.0]))[0] == 127 / 256 and safe.counters["neuron_wraps"] == 0
