@@ -35,6 +35,7 @@ from cml_edge.backends.fields import matrix_value
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2.config import (
     DRAWS,
+    LEARNED_GAIN,
     PAYLOAD_SCALES,
     TERMS,
     Loihi2Config,
@@ -46,6 +47,7 @@ from cml_edge.backends.loihi2.config import (
 from cml_edge.backends.loihi2.lava import (
     LAVA_SIGN_MODES,
     SIGN_MODES,
+    STANDARD_RANGE,
     clip_weights,
     float_scale,
     optimize_weight_bits,
@@ -79,6 +81,7 @@ class Loihi2Array(SynapticArray):
 
     name = "loihi2"
     State = Loihi2State
+    mapping = "initial"  # the float -> integer mapping it was programmed with (config.py)
     counter_names = (
         "matvecs", "rmatvecs", "macs", "weight_reads", "neuron_wraps", "outer_updates",
         "update_macs", "product_saturations", "acc_saturations", "commits", "epochs",
@@ -115,7 +118,12 @@ class Loihi2Array(SynapticArray):
         fixed_exp = matrix_value(config, "weight_exp", index)
         if fixed_scale is None:
             S = float_scale(W, mode)
+            if config.mapping == "learned":
+                S += LEARNED_GAIN[min(index, len(LEARNED_GAIN) - 1)]
             W_int = np.rint(np.ldexp(W, S))
+            std_lo, std_hi = STANDARD_RANGE[mode]
+            wrong += int(np.count_nonzero((W_int < std_lo) | (W_int > std_hi)))
+            W_int = np.clip(W_int, std_lo, std_hi)
             opt = optimize_weight_bits(W_int, mode, loihi2=True)
             nb = config.num_weight_bits or max(opt.num_weight_bits, 1)
             msb = W_int.astype(np.int32) << -opt.weight_exp  # the loihi2=False weights
@@ -143,7 +151,9 @@ class Loihi2Array(SynapticArray):
                             np.zeros(1, np.int64), np.zeros(n, np.int64),
                             np.zeros(n, np.int64), np.zeros(n, np.int64),
                             np.zeros(3, np.int64), counters)
-        return cls(state)
+        arr = cls(state)
+        arr.mapping = config.mapping
+        return arr
 
     def options(self) -> dict[str, Any]:
         p = self.state.params
@@ -151,7 +161,7 @@ class Loihi2Array(SynapticArray):
                 "weight_exp": p.exp, "scale_exp": p.scale_exp,
                 "sign_mode": SIGN_MODES[p.sign_mode], "t_epoch": p.t_epoch,
                 "draws": DRAWS[p.draws], "payload_scale": PAYLOAD_SCALES[p.payload_scale],
-                "terms": TERMS[p.terms], "strict": bool(p.strict)}
+                "terms": TERMS[p.terms], "mapping": self.mapping, "strict": bool(p.strict)}
 
     @property
     def config(self) -> Loihi2Config:
@@ -266,7 +276,9 @@ class Loihi2Array(SynapticArray):
                              f"{p.t_epoch}")
         if (state.counters < 0).any():
             raise InputError("negative counters")
-        return cls(state._replace(w=laid_out(state.w), acc=laid_out(state.acc)))
+        arr = cls(state._replace(w=laid_out(state.w), acc=laid_out(state.acc)))
+        arr.mapping = config.mapping if "mapping" in options else "initial"  # older files
+        return arr
 
 
 def lava_description(arr: Loihi2Array, name: str) -> dict[str, Any]:

@@ -32,6 +32,19 @@ MAX_T_EPOCH = 63  # Lava: W_EPOCH_TIME = 6 (tx, ty are 6-bit)
 DRAWS = ("shared", "independent")
 PAYLOAD_SCALES = ("safe", "full")
 TERMS = ("engine", "exact")
+MAPPINGS = ("learned", "initial")
+LEARNED_GAIN = (0, 0, 2)
+"""The ``learned`` mapping's scale gain per matrix [W_q, W_k, W_v], in powers of two over
+the scale the initial weights set. W_q and W_k keep their range while learning (float64
+twin, paper protocol, 30 x 30 arena: max |W_q| 0.17-0.24 and |W_k| 0.34-0.39 after
+training, as at initialisation); W_v does not: Eq. 2 drives W_v a to the state
+displacement W_q (o' - o) of one move, at most max_i ||W_q[i, :]||_1 / obs_scale (0.012
+for the default config), and the trained W_v reaches 0.009-0.010 against its initial
+0.34-0.38 (2^-5). Programmed at the initial weights' scale, the trained W_v uses about
++-10 of its +-256 levels and each step's update is a fraction of the accumulator's unit.
+The gain 2^2 puts the trained W_v at about +-40 levels and keeps the initial weights mostly
+representable (those past the 8-bit standard range, |w| > 0.25 in float, are clipped there
+and counted, ``program_clips``; the learning decays the initial weights anyway)."""
 U_BITS = 24  # the neuron's state u (PyLifModelBitAcc: 24 bits)
 ACT_SHIFT = 6  # PyLifModelBitAcc: a_in << 6 into u
 SCALE_LIMIT = 1000  # |scale_exp| beyond this is no float64 scale
@@ -114,6 +127,12 @@ class Loihi2Config:
     lr post_i pre_j computed in float64 and stochastically rounded to the accumulator's
     7 fraction bits (one draw per term), the rest as the chip. ``exact`` measures what the
     engine's term formation costs the CML. Default engine."""
+    mapping: str = option("learned", choices=MAPPINGS, kernel=False)
+    """How the float matrices map to the chip's integers: ``learned``, each matrix's scale
+    chosen for the range it holds after learning (:data:`LEARNED_GAIN`: W_v 2^2 finer than
+    its initial weights' scale, their excess clipped and counted), or ``initial``, every
+    scale set by the initial weights (the earlier mapping, kept as the documented finding:
+    its trained W_v is too coarse for the engine's terms). Default learned."""
     strict: bool = option(False, flag="--strict-saturation",
                           help="raise on any saturation instead of clipping and counting")
     """Raise on any overflow (a wrapped neuron input, a saturated learning accumulator or
@@ -209,6 +228,7 @@ def check_scale(scale_exp: int, what: str) -> int:
     return scale_exp
 
 
-__all__ = ["COST", "DRAWS", "KNOBS", "TERMS", "MAX_MESSAGE_BITS", "MAX_T_EPOCH",
-           "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP", "PAYLOAD_SCALES", "PRESETS", "Loihi2Config",
-           "Loihi2Params", "check_scale", "loihi2_params", "make_config", "payload_l1_max"]
+__all__ = ["COST", "DRAWS", "KNOBS", "LEARNED_GAIN", "MAPPINGS", "TERMS", "MAX_MESSAGE_BITS",
+           "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP", "PAYLOAD_SCALES", "PRESETS",
+           "Loihi2Config", "Loihi2Params", "check_scale", "loihi2_params", "make_config",
+           "payload_l1_max"]

@@ -19,7 +19,7 @@ from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2 import lava
 from cml_edge.backends.loihi2 import reference as ref
 from cml_edge.backends.loihi2.array import Loihi2Array
-from cml_edge.backends.loihi2.config import payload_l1_max
+from cml_edge.backends.loihi2.config import LEARNED_GAIN, MAPPINGS, payload_l1_max
 from cml_edge.backends.quant import SaturationError, exponent_for
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.costs import ledger
@@ -298,8 +298,9 @@ def fractional_case(seed=0, **options):
     """w = [-200, 100, 254], LSB 2^-9; lr 2^-12, post [1], pre [1, 0.5, 0.25]: the rule's
     exponent would be -7, so the traces are formed 7 bits coarser (pre's 4 zero bits, then
     post's 3): X = [4, 2, 1], Y = 8, and the terms (4 X 8) >> 3 = [16, 8, 4] units of 2^-7,
-    exactly the float update [0.125, 0.0625, 0.03125] LSB."""
-    arr = program([-100, 50, 127], seed=seed, index=2, **options)
+    exactly the float update [0.125, 0.0625, 0.03125] LSB. W_v's stream (index 2) at the
+    initial weights' scale (mapping ``initial``)."""
+    arr = program([-100, 50, 127], seed=seed, index=2, **{"mapping": "initial", **options})
     return arr, np.array([1.0]), np.array([1.0, 0.5, 0.25]), 2.0**-12
 
 
@@ -670,3 +671,35 @@ def test_term_line_is_the_engine_term_cell_by_cell(k):
                 got = line.copy()
                 assert kern._term_line.py_func(got, mf, factors, k, clip) == (psat, asat)
                 assert np.array_equal(got, want)
+
+
+# the mapping ------------------------------------------------------------------------------
+def test_the_learned_mapping_programs_w_v_finer_and_counts_its_clips():
+    W = np.random.default_rng(7).normal(0, 0.1, (16, 8))
+    for index, gain in enumerate(LEARNED_GAIN):
+        old = Loihi2Array.from_float(W, seed=0, index=index, mapping="initial")
+        new = Loihi2Array.from_float(W, seed=0, index=index)
+        assert new.mapping == "learned" and old.mapping == "initial"
+        assert new.scale_exp == old.scale_exp + gain
+        if gain == 0:
+            assert np.array_equal(new.state.w, old.state.w)
+            continue
+        # rint(W 2^(S + gain)) clipped to the standard range, counted
+        S = lava.float_scale(W, "mixed") + gain
+        full = np.rint(np.ldexp(W, S))
+        clipped = int(np.count_nonzero((full < -128) | (full > 127)))
+        assert clipped > 0 and new.counters["program_clips"] == clipped
+        want = lava.truncate_weights(np.clip(full, -128, 127).astype(np.int32) << 1, "mixed", 8)
+        assert np.array_equal(new.state.w, want)
+
+
+def test_the_mapping_survives_a_save_and_older_files_read_as_initial():
+    W = np.random.default_rng(8).normal(0, 0.1, (4, 3))
+    for mapping in MAPPINGS:
+        arr = Loihi2Array.from_float(W, seed=0, index=2, mapping=mapping)
+        d = arr.state_dict()
+        assert array_from_state_dict(d).mapping == mapping
+        options = json.loads(str(d["__options__"]))
+        del options["mapping"]
+        d["__options__"] = np.array(json.dumps(options))
+        assert array_from_state_dict(d).mapping == "initial"
