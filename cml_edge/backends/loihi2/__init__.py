@@ -12,7 +12,9 @@ DEVICE = DeviceSpec(
                     kernels.loihi2_commit, kernels.loihi2_sigmoid),
     config_class=Loihi2Config,
     backends={"loihi2": Backend("Loihi 2 as Lava's bit-accurate models: 8-bit weights, "
-                                "graded spikes, 24-bit neurons, the learning engine")},
+                                "graded spikes, 24-bit neurons, the learning engine; "
+                                "--schedule step is what Lava runs (walk keeps the engine's "
+                                "accumulator across a walk, which Lava cannot)")},
     presets=PRESETS,
     knobs=KNOBS,
     cost=COST,
