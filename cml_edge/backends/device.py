@@ -163,7 +163,9 @@ class DeviceSpec:
       default :data:`RULE_FIDELITY` (measured; the contract holds it to this);
     - ``draws``: whether an array of a config draws from its device stream (a function
       of the config, or a constant): where it draws nothing, every chip seed gives the
-      same chip, and ``--chips`` is refused (:mod:`cml_edge.grid.chips`).
+      same chip, and ``--chips`` is refused (:mod:`cml_edge.grid.chips`);
+    - ``schedule``: the learning schedule ``train`` and ``emulate`` run when ``--schedule``
+      is not given (``walk``, the paper's; loihi2: ``step``, the one Lava runs).
     """
 
     array_class: type
@@ -176,6 +178,7 @@ class DeviceSpec:
     report: Report = field(default_factory=Report)
     rule_fidelity: Mapping[str, RuleFidelity] = field(default_factory=dict)
     draws: bool | Callable[[Any], bool] = False
+    schedule: str = "walk"
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():

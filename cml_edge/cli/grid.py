@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
+from cml_edge.backends import BACKENDS
 from cml_edge.cli.args import (
     Progress,
     add_backend,
@@ -57,9 +58,10 @@ def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
     p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")
     p.add_argument("--explore", choices=EXPLORATIONS, default="random",
                    help="exploration strategy (random)")
-    p.add_argument("--schedule", choices=SCHEDULES, default="walk",
+    p.add_argument("--schedule", choices=SCHEDULES, default=None,
                    help="walk: updates summed over a walk, applied at its end (the paper); "
-                        "step: applied in place every step")
+                        "step: applied in place every step (default walk; loihi2: step, the "
+                        "schedule Lava runs)")
     p.add_argument("--utility", choices=UTILITIES, default="normalized",
                    help="planning utility: W_v columns normalised (default) or raw")
     default = ("direct (the counters are counted on it)" if counted else
@@ -184,7 +186,14 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_emulate, show=show_protocol)
 
 
+def _default_schedule(args: argparse.Namespace) -> None:
+    """``--schedule`` not given: the device's (``DeviceSpec.schedule``)."""
+    if args.schedule is None:
+        args.schedule = getattr(BACKENDS[args.backend].device, "schedule", "walk")
+
+
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
+    _default_schedule(args)
     writable_file(args.out, "--out")
     options = backend_options(args)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
@@ -297,6 +306,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
+    _default_schedule(args)
     if args.drift_time < 0:
         raise InputError(f"--drift-time {args.drift_time} is negative (allowed: >= 0 seconds)")
     if args.out:

@@ -13,13 +13,14 @@ DEVICE = DeviceSpec(
     config_class=Loihi2Config,
     backends={"loihi2": Backend("Loihi 2 as Lava's bit-accurate models: 8-bit weights, "
                                 "graded spikes, 24-bit neurons, the learning engine; "
-                                "--schedule step is what Lava runs (walk keeps the engine's "
-                                "accumulator across a walk, which Lava cannot)")},
+                                "default --schedule step, what Lava runs (walk keeps the "
+                                "engine's accumulator across a walk, which Lava cannot)")},
     presets=PRESETS,
     knobs=KNOBS,
     cost=COST,
     draws=True,  # the write-back's stochastic rounding
     report=Report(systems=("loihi2",), breakpoints=(("loihi2", ("bits",)),)),
+    schedule="step",  # the one Lava runs: the engine's rule once per epoch (t_epoch 1)
 )
 
 __all__ = ["DEVICE", "Loihi2Array", "Loihi2Config", "Loihi2State"]

@@ -703,3 +703,14 @@ def test_the_mapping_survives_a_save_and_older_files_read_as_initial():
         del options["mapping"]
         d["__options__"] = np.array(json.dumps(options))
         assert array_from_state_dict(d).mapping == "initial"
+
+
+def test_the_default_schedule_is_the_one_lava_runs(cli, tmp_path):
+    for backend, schedule in (("loihi2", "step"), ("int8", "walk")):
+        code, out, err = cli("train", "--backend", backend, *SMALL, "--out",
+                             tmp_path / f"{backend}.npz", "--json")
+        assert code == 0, err
+        assert json.loads(out)["schedule"] == schedule
+    code, out, _ = cli("train", "--backend", "loihi2", *SMALL, "--schedule", "walk", "--out",
+                       tmp_path / "w.npz", "--json")
+    assert code == 0 and json.loads(out)["schedule"] == "walk"
