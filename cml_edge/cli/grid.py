@@ -187,9 +187,11 @@ def add_parsers(sub) -> None:
 
 
 def _default_schedule(args: argparse.Namespace) -> None:
-    """``--schedule`` not given: the device's (``DeviceSpec.schedule``)."""
+    """``--schedule`` not given: the device's (``DeviceSpec.schedule``; an unknown backend
+    is refused after, by the backend options)."""
     if args.schedule is None:
-        args.schedule = getattr(BACKENDS[args.backend].device, "schedule", "walk")
+        spec = BACKENDS.get(args.backend)
+        args.schedule = getattr(getattr(spec, "device", None), "schedule", "walk")
 
 
 def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
