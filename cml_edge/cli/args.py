@@ -78,12 +78,14 @@ SIZES: dict[str, Size] = {
     "first_chip": Size(0, SEED_MAX, "a chip seed of an int64 stream key"),
     "chips": Size(1, 100_000, "each chip trains every model seed again"),
     "walks": Size(1, 100_000, "exploration walks (the paper's 100)"),
-    "steps": Size(1, 1_000_000, "steps per walk (the paper's 900)"),
+    "steps": Size(1, 100_000, "steps per walk (the paper's 900); a stop request may wait "
+                              "for one walk (engine.stop.CHUNK_STEPS)"),
     "dqn:steps": Size(1, 100_000_000, "environment steps per seed (the paper's 1e5..2e5)"),
     "arena": Size(2, 1024, "cells a side: the largest MovingAI benchmark maps are 1024"),
     "trials": Size(1, 1_000_000, "(start, goal) pairs"),
-    "max_steps": Size(1, 1_000_000, "actions per plan (100 for the 30 x 30 arena)"),
-    "max_actions": Size(1, 1_000_000, "actions per drive"),
+    "max_steps": Size(1, 100_000, "actions per plan (100 for the 30 x 30 arena); a stop "
+                                  "request may wait for one plan"),
+    "max_actions": Size(1, 100_000, "actions per drive; a stop request may wait for one"),
     "obstacles": Size(0, 1024 * 1024, "at most every cell of the largest arena"),
     "devices": Size(2, 10_000_000, "devices per point of a characterization"),
     "workers": Size(1, 1024, "worker processes"),

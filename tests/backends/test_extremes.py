@@ -108,6 +108,27 @@ def test_the_estimate_scales_with_the_sizes():
     assert limits.total_memory() > 2**28
 
 
+def test_the_estimate_knows_each_command_s_own_sizes():
+    """A DQN step costs a network update; a drive's budget is --max-actions; a scenario's
+    sizes are its budget's and its parts', a break point's several runs of them."""
+    from cml_edge.cli import build_parser
+
+    def est(*argv):
+        return limits.estimate(build_parser().parse_args([str(a) for a in argv]))
+
+    dqn, cml = est("dqn", "train", "--seeds", 1, "--steps", 10**6), est(
+        "train", "--walks", 1000, "--steps", 1000, "--out", "m.npz")
+    assert dqn.seconds > 100 * cml.seconds
+    with pytest.raises(InputError, match=r"^--trials 1e\+06 x a step budget of 100000 "):
+        limits.check(build_parser().parse_args(
+            ["robot", "evaluate", "r.npz", "--trials", "1000000", "--max-actions", "100000"]))
+    full, tiny = est("scenario", "paper", "--seeds", 2), est("scenario", "paper", "--seeds", 2,
+                                                              "--budget", "tiny")
+    assert full.seconds > 100 * tiny.seconds and "--budget full" in dict(full.terms)
+    bp = est("breakpoint", "--scenario", "paper", "--knob", "bits", "--seeds", 2)
+    assert bp.seconds == pytest.approx(limits.BREAKPOINT_RUNS * full.seconds)
+
+
 # valid extremes ---------------------------------------------------------------------------
 def value_in(cls, name):
     """A value of field ``name`` from its documented range: an end or a point inside."""

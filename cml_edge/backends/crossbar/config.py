@@ -386,9 +386,18 @@ CrossbarParams = kernel_record(DeviceConfig, "CrossbarParams", __name__, derived
     "w_max": float,  # this array's weight of a full conductance swing
     "g_per_w": float,  # (g_max - g_min) / w_max
     "dw_min": float,  # nominal weight step of one pulse, 2 dG w_max / (g_max - g_min)
+    "pulse_cap": int,  # most pulses a commit sends a pair (PULSE_CAP_SWEEPS (levels - 1))
     "dac_step": float,  # input step of the DAC on [-1, 1]; 0 = ideal
     "adc_step": float,  # output step of the ADC on [-adc_bound, adc_bound]; 0 = ideal
 })
+
+
+PULSE_CAP_SWEEPS = 4
+"""A ``pulse`` commit sends a pair at most this many sweeps of its device's range,
+``PULSE_CAP_SWEEPS (levels - 1)`` pulses: a linear device crosses its range in levels - 1
+pulses and a soft-bounds one comes within e^-8 of its bound in four sweeps, so more would
+only hold a device at its bound. The rest is dropped and counted (``pulses_capped``); it
+also bounds a commit's work whatever ``pulse_gain`` and ``levels`` ask."""
 
 
 def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
@@ -401,6 +410,7 @@ def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     return build_record(
         CrossbarParams, config, dG=dG, w_max=w_max, g_per_w=grange / w_max,
         dw_min=(devices * config.pulse_gain) * dG * w_max / grange,
+        pulse_cap=PULSE_CAP_SWEEPS * max(config.levels - 1, 0),
         dac_step=_step(1.0, config.dac_bits), adc_step=_step(config.adc_bound, config.adc_bits))
 
 
