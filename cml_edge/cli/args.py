@@ -136,9 +136,25 @@ def positive_float(text: str) -> float:
     return value
 
 
+_ESTIMATE: list[str] = []
+
+
+def hold_estimate(line: str | None) -> None:
+    """Keep the run's estimate line (``engine.limits.check``) until its work starts, so
+    that input refused by the command itself is the only line it prints."""
+    _ESTIMATE[:] = [] if line is None else [line]
+
+
+def say_estimate() -> None:
+    """Print the held estimate line, once: the work starts (a progress bar's first step,
+    a compile, or a command's own call before its runs)."""
+    while _ESTIMATE:
+        tqdm.write(_ESTIMATE.pop(), file=sys.stderr)
+
+
 class Progress:
     """A progress callback ``(done, total)``: a tqdm bar on stderr, drawn only when stderr
-    is a terminal."""
+    is a terminal; its first call says the held estimate (:func:`say_estimate`)."""
 
     def __init__(self, label: str) -> None:
         self.label = label
@@ -146,6 +162,7 @@ class Progress:
 
     def __call__(self, done: int, total: int) -> None:
         if self.bar is None:
+            say_estimate()
             self.bar = tqdm(total=total, desc=self.label, file=sys.stderr, leave=True,
                             disable=not sys.stderr.isatty())
         self.bar.update(done - self.bar.n)

@@ -15,6 +15,7 @@ from cml_edge.cli.args import (
     command_line,
     finite_float,
     positive_int,
+    say_estimate,
 )
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.core.finite import dumps
@@ -107,6 +108,12 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def _say_before_runs(notes: list[str]) -> None:
+    say_estimate()
+    for note in notes:
+        print(f"cml-edge: note: {note}", file=sys.stderr)
+
+
 def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.errors import InputError
 
@@ -119,7 +126,7 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
                              args.target, args.seeds, tuple(args.range) if args.range else None,
                              _budget(args), args.part, args.out, args.workers, args.scheduler,
                              command_line(), args.restart,
-                             notice=lambda line: print(f"cml-edge: note: {line}", file=sys.stderr))
+                             on_start=_say_before_runs)
     if args.out is not None:
         atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
     return result

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from cml_edge.backends import BACKENDS
-from cml_edge.cli.args import Progress, command_line, positive_int
+from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
 from cml_edge.cli.output import num, plural, table
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
@@ -88,6 +88,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     writable_folder(args.out, "--out")
     writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
+    say_estimate()
     report = build_report(quick=args.quick, command=command_line(),
                           progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
     folder = write_report(report, args.out)

@@ -112,17 +112,19 @@ def estimate(args: Any) -> Estimate:
     trains the paper's 100 walks x 900 steps a model)."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
     models = seeds * chips
-    step_s, repeat = TRAIN_STEP_S, 1.0
+    step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(os.cpu_count() or 1)
     trials = _get(args, "trials", 0)
     budget = _get(args, "max_steps", _get(args, "max_actions", PLAN_BUDGET))
     plans, plan_label = trials * budget, f"--trials {trials:g} x a step budget of {budget:g}"
     if hasattr(args, "walks"):  # a command that trains: its walks x steps
         walks, steps = _get(args, "walks", DEFAULT_WALKS), _get(args, "steps", DEFAULT_STEPS)
-    elif getattr(args, "command", None) == "dqn":
+    elif getattr(args, "command", None) == "dqn":  # seeds one after another, on one core
         from cml_edge.baselines.settings import DEFAULT_STEPS as DQN_STEPS
 
-        walks, step_s = 1.0, DQN_STEP_S
+        walks, step_s, cores = 1.0, DQN_STEP_S, 1.0
         steps = _get(args, "steps", DQN_STEPS.get(getattr(args, "reward", None), 0))
+        if args.dqn_command != "train":  # evaluate: the trained seeds' plans only
+            walks = steps = 0.0
     elif getattr(args, "command", None) in ("scenario", "breakpoint"):
         walks, steps, plans, repeat, budget_name = _scenario_sizes(args)
         plan_label = f"--budget {budget_name}"
@@ -132,7 +134,7 @@ def estimate(args: Any) -> Estimate:
         walks, steps = 1.0, _get(args, "steps", 0)
     side = _get(args, "arena", 0)
     devices = _get(args, "devices", 0)
-    workers = max(1.0, min(_get(args, "workers", os.cpu_count() or 1), os.cpu_count() or 1))
+    workers = max(1.0, min(_get(args, "workers", cores), cores))
     terms = {
         f"--seeds {seeds:g}" + (f" x --chips {chips:g}" if chips > 1 else ""):
             models * TASK_BYTES,

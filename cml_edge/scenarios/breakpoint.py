@@ -150,13 +150,14 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
                     | None = None, budget: str = "full", part: str | None = None,
                     out: str | Path | None = None, workers: int | None = None,
                     scheduler: str | None = None, command: str | None = None,
-                    restart: bool = False, notice: Callable[[str], None] | None = None
+                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None
                     ) -> dict[str, Any]:
     """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
     ``options``: the device's other settings (the knob's field overrides them); ``out``:
     each evaluation's sweep under ``out/KNOB=VALUE`` (resumable; a sweep of other settings
-    there is refused unless ``restart``, which starts each over). ``notice`` receives,
-    once the inputs are checked and before any run, what the user should know first."""
+    there is refused unless ``restart``, which starts each over). ``on_start`` is called
+    once the inputs are checked, before the first run, with notes the user should read
+    first."""
     scen = get(scenario)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; known: {', '.join(BUDGETS)}")
@@ -193,8 +194,8 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     grid = knob_grid(k, lo, hi)
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
-    if budget == "tiny" and notice is not None:
-        notice(TINY_NOTE)
+    if on_start is not None:
+        on_start([TINY_NOTE] if budget == "tiny" else [])
     evaluations: list[dict[str, Any]] = []
 
     def passes(value: float) -> bool:
