@@ -3,7 +3,8 @@
 # `aihwkit`): `bash scripts/aihwkit_env.sh`. Idempotent: an environment that already imports
 # aihwkit with a tile that updates is kept, and the script returns in seconds.
 #
-# Where: $CML_EDGE_AIHWKIT_VENV, else .venv-aihwkit in the repository (gitignored). The
+# Where: $CML_EDGE_AIHWKIT_VENV, else ~/.cache/cml-edge/aihwkit-venv (outside the
+# repository: one environment for every clone, kept between CI runs on a machine). The
 # interpreter: $CML_EDGE_AIHWKIT_PYTHON (a Python 3.11), else python3.11 on PATH, else
 # python3. `cml-edge device characterize --against aihwkit`, `--preset aihwkit:NAME`,
 # benchmarks/vs_aihwkit.py and the tests marked `aihwkit` find it at the same place.
@@ -18,7 +19,7 @@
 # nvtx, nvrtc, cusolver or triton, which a CPU import never loads). About 6 GB, 3 minutes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-venv="${CML_EDGE_AIHWKIT_VENV:-$PWD/.venv-aihwkit}"
+venv="${CML_EDGE_AIHWKIT_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/cml-edge/aihwkit-venv}"
 python="${CML_EDGE_AIHWKIT_PYTHON:-$(command -v python3.11 || command -v python3)}"
 check='import torch, aihwkit
 from aihwkit.simulator.configs import SingleRPUConfig
@@ -34,15 +35,25 @@ if [ -x "$venv/bin/python" ] && "$venv/bin/python" -c "$check" 2>/dev/null; then
   echo "aihwkit environment ready: $venv/bin/python"
   exit 0
 fi
+if [ -e "$venv" ] && [ ! -f "$venv/pyvenv.cfg" ]; then
+  echo "$venv exists and is not a virtual environment: left alone" >&2
+  exit 1
+fi
 start=$(date +%s)
 rm -rf "$venv"
+mkdir -p "$(dirname "$venv")"
 "$python" -m venv "$venv"
-pip=("$venv/bin/python" -m pip install --quiet --disable-pip-version-check)
-"${pip[@]}" --no-deps torch==2.10.0 aihwkit==1.1.0
-"${pip[@]}" numpy scipy requests tqdm protobuf filelock 'typing-extensions>=4.10' \
+install() {  # pip install, without its notes on the requirements --no-deps leaves out
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$@" 2>&1 |
+    { grep -v -e "WARNING: Location" -e "which is not installed" -e "dependency resolver" \
+        -e "dependency conflicts" || true; }
+  return "${PIPESTATUS[0]}"
+}
+install --no-deps torch==2.10.0 aihwkit==1.1.0
+install numpy scipy requests tqdm protobuf filelock 'typing-extensions>=4.10' \
   'sympy>=1.13.3' 'networkx>=2.5.1' jinja2 'fsspec>=0.8.5'
 if [ "$(uname -m)" = x86_64 ]; then  # the CUDA libraries a CPU import of torch 2.10.0 loads
-  "${pip[@]}" --no-deps nvidia-cuda-runtime-cu12==12.8.90 nvidia-cuda-cupti-cu12==12.8.90 \
+  install --no-deps nvidia-cuda-runtime-cu12==12.8.90 nvidia-cuda-cupti-cu12==12.8.90 \
     nvidia-cublas-cu12==12.8.4.1 nvidia-cudnn-cu12==9.10.2.21 nvidia-cufft-cu12==11.3.3.83 \
     nvidia-curand-cu12==10.3.9.90 nvidia-cusparse-cu12==12.5.8.93 \
     nvidia-cusparselt-cu12==0.7.1 nvidia-nccl-cu12==2.27.5 nvidia-nvshmem-cu12==3.4.5 \

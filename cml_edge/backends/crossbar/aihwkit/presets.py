@@ -57,7 +57,8 @@ _WHY = {"up_down": "aihwkit shrinks one direction by up_down, the project scales
 
 
 @cache
-def _params(name: str) -> dict[str, Any]:
+def aihwkit_params(name: str) -> dict[str, Any]:
+    """The worker's ``params`` of aihwkit's preset ``name`` (once per process)."""
     return runner.run("params", name=name)
 
 
@@ -65,7 +66,7 @@ def describe(preset: str) -> dict[str, Any]:
     """``{"device", "class", "fields", "mapped", "inert", "refused"}`` of ``aihwkit:NAME``:
     the DeviceConfig field values, and per aihwkit parameter what became of it."""
     name = preset[len(PREFIX):]
-    got = _params(name)
+    got = aihwkit_params(name)
     if "error" in got:
         raise InputError(f"{got['error']} (preset {preset!r}; allowed: "
                          f"{', '.join(PREFIX + n for n in got['allowed'])})")

@@ -21,18 +21,19 @@ from cml_edge.errors import InputError
 BUILD_COMMAND = "bash scripts/aihwkit_env.sh"
 """The one command that builds aihwkit's environment (from the repository's root)."""
 VENV_VARIABLE = "CML_EDGE_AIHWKIT_VENV"
-"""An environment variable naming the environment's folder (default: ``.venv-aihwkit``
-in the repository, where the build command puts it)."""
+"""An environment variable naming the environment's folder (default
+``~/.cache/cml-edge/aihwkit-venv``, where the build command puts it)."""
 WORKER = Path(__file__).with_name("worker.py")
 
 
 def venv_dir() -> Path:
     """The folder of aihwkit's environment: ``$CML_EDGE_AIHWKIT_VENV``, else
-    ``.venv-aihwkit`` beside the package's source tree."""
+    ``$XDG_CACHE_HOME/cml-edge/aihwkit-venv`` (``~/.cache`` without it)."""
     given = os.environ.get(VENV_VARIABLE)
     if given:
         return Path(given)
-    return Path(__file__).resolve().parents[4] / ".venv-aihwkit"
+    cache = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(cache) / "cml-edge" / "aihwkit-venv"
 
 
 def python() -> Path | None:

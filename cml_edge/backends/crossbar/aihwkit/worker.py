@@ -9,8 +9,9 @@ torch for it (:mod:`cml_edge.backends.crossbar.aihwkit.runner` starts it). Tasks
 - ``pulses``: single pulses and pulses to full range on ``AnalogTile(n, 1)`` tiles of one
   device class: one coincidence per device and pulse (deterministic-implicit pulse trains of
   length 1, learning rate above the device's weight granularity, so every probability is
-  clipped to 1), the weights read with ``get_weights`` before and after (what a device
-  researcher reads: hidden weight plus write noise where the device has it);
+  clipped to 1), the weights read with ``get_weights`` before and after (the hidden weight
+  plus write noise where the device has it; programmed without it, as the project's
+  characterisation programs noise-free: ``apply_write_noise_on_set`` off);
 - ``inference``: ``PCMLikeNoiseModel``'s programming noise, drift coefficients, drift and
   accumulated read noise applied to conductances (the calls its inference tiles make);
 - ``bench``: seconds per CML training step and planning step on three tiles.
@@ -88,6 +89,8 @@ def pulses(req: dict[str, Any]) -> dict[str, Any]:
     torch.set_num_threads(1)
     torch.manual_seed(req["seed"])
     dev = _device(req["device"])
+    if hasattr(dev, "apply_write_noise_on_set"):  # programmed noise-free, as the project's
+        dev.apply_write_noise_on_set = False
     n = req["devices"]
     x = torch.ones(1, 1)
     push = {"up": -torch.ones(1, n), "down": torch.ones(1, n)}
@@ -155,12 +158,13 @@ def inference(req: dict[str, Any]) -> dict[str, Any]:
 
 
 def bench(req: dict[str, Any]) -> dict[str, Any]:
-    """Seconds per CML training step (each tile: one forward read and one pulsed rank-one
-    update) and per planning step (each tile: one forward and one transposed read), for
-    float tiles (``FloatingPointRPUConfig``) or a preset device on ``AnalogTile``s with
-    aihwkit's default pulsed update; the public tile API (``tile.forward`` /
-    ``backward`` / ``update``) and the bare compiled tile (``tile.tile``: the C++
-    object the public API wraps)."""
+    """Seconds of process CPU time (the median of ``repeats`` runs of ``steps``) per CML
+    training step (each tile: one forward read of ``xs`` and one pulsed rank-one update
+    with ``ds``) and per planning step (each tile: one forward and one transposed read),
+    for float tiles (``FloatingPointRPUConfig``) or a preset device (a unit cell on
+    ``UnitCellRPUConfig``) on ``AnalogTile``s with aihwkit's default pulsed update; the
+    public tile API (``tile.forward`` / ``backward`` / ``update``) and the bare compiled
+    tile (``tile.tile``: the C++ object the public API wraps)."""
     import torch
     from aihwkit.simulator.configs import FloatingPointRPUConfig, SingleRPUConfig, UnitCellRPUConfig
     from aihwkit.simulator.tiles import AnalogTile, FloatingPointTile
@@ -178,31 +182,38 @@ def bench(req: dict[str, Any]) -> dict[str, Any]:
     for t, (o, i) in zip(tiles, shapes):
         t.set_learning_rate(req["lr"])
         t.set_weights(0.1 * torch.randn(o, i))
-    xs = [torch.rand(1, i) for _, i in shapes]
-    ds = [0.01 * torch.randn(1, o) for o, _ in shapes]
+    xs = [torch.tensor([x], dtype=torch.float32) for x in req["xs"]]
+    ds = [torch.tensor([d], dtype=torch.float32) for d in req["ds"]]
     out = {}
+    no = (False, False, False)  # the bare tile's bias, transposes and non-blocking flags
     for api in ("public", "bare"):
-        calls = [(t.tile if api == "bare" else t) for t in tiles]
+        bare = api == "bare"
+        fwd = [(lambda x, c=t.tile: c.forward(x, *no, False)) if bare else t.forward
+               for t in tiles]
+        bwd = [(lambda d, c=t.tile: c.backward(d, *no, False)) if bare else t.backward
+               for t in tiles]
+        upd = [(lambda x, d, c=t.tile: c.update(x, d, *no, False)) if bare else t.update
+               for t in tiles]
 
-        def train(calls: list[Any] = calls) -> None:
-            for c, x, d in zip(calls, xs, ds):
-                c.forward(x)
-                c.update(x, d)
+        def train(fwd: list[Any] = fwd, upd: list[Any] = upd) -> None:
+            for f, u, x, d in zip(fwd, upd, xs, ds):
+                f(x)
+                u(x, d)
 
-        def plan(calls: list[Any] = calls) -> None:
-            for c, x, d in zip(calls, xs, ds):
-                c.forward(x)
-                c.backward(d)
+        def plan(fwd: list[Any] = fwd, bwd: list[Any] = bwd) -> None:
+            for f, b, x, d in zip(fwd, bwd, xs, ds):
+                f(x)
+                b(d)
 
         for name, fn in (("train", train), ("plan", plan)):
             fn()
-            best = math.inf
+            runs = []
             for _ in range(req["repeats"]):
-                t0 = time.perf_counter()
+                t0 = time.process_time()
                 for _ in range(req["steps"]):
                     fn()
-                best = min(best, (time.perf_counter() - t0) / req["steps"])
-            out[f"{name}_{api}_s"] = best
+                runs.append((time.process_time() - t0) / req["steps"])
+            out[f"{name}_{api}_s"] = sorted(runs)[len(runs) // 2]
     return out
 
 
