@@ -24,7 +24,7 @@ from typing import Any
 
 from cml_edge.backends.crossbar.aihwkit import runner
 from cml_edge.backends.crossbar.aihwkit.presets import PREFIX, aihwkit_params, describe
-from cml_edge.backends.crossbar.characterize import MAX_PULSES, characterize
+from cml_edge.backends.crossbar.characterize import MAX_PULSES, characterize, time_text
 from cml_edge.backends.crossbar.config import make_config
 from cml_edge.errors import InputError
 
@@ -173,7 +173,7 @@ def figure(result: dict[str, Any]) -> Any:
             for side, style in (("aihwkit", "o-"), ("project", "s--")):
                 a.plot([r["g_us"] for r in pick], [r[side] for r in pick], style, ms=4,
                        label=side)
-            when = "" if check == "programming" else f" at t = {last:g} s"
+            when = "" if check == "programming" else f" at t = {time_text(last)}"
             a.set(xlabel="target G (uS)", ylabel=pick[0]["quantity"] if pick else "",
                   title=f"{check}{when}")
         a.legend(fontsize=8)
