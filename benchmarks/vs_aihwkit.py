@@ -2,18 +2,21 @@
 
     python benchmarks/vs_aihwkit.py [--steps 2000] [--repeats 5] [--json]
 
-The shapes of the 30 x 30 protocol's CML (model seed 0): W_q 256 x 2, W_k 8 x 256,
-W_v 256 x 8. A training step is, on each of the three arrays, one forward read and one
-pulsed rank-one update applied at once (the per-step pulsed schedule: the project's
-``outer_update`` with ``defer`` False; aihwkit's ``update``), with the vectors of a
-training step (W_q: o and the error, W_k: s and the affordance error, W_v: a one-hot
-action and the error, drawn once from seed 0) and the learning rate 0.01; a planning step
-is one forward and one transposed read of each. The project's step is a compiled loop
-through the seam (:mod:`cml_edge.backends.dispatch`); aihwkit's runs in its own
-environment (``bash scripts/aihwkit_env.sh``), through its public tile API and through the
-bare compiled tile the API wraps. One process and one thread each (torch and aihwkit's
-OpenMP set to 1 thread); microseconds of process CPU time per step, the median of
-``repeats`` runs of ``steps`` steps after a warm-up.
+The shapes of the 30 x 30 protocol's CML (model seed 0): W_q 256 x 2, W_k 8 x 256, W_v 256 x
+8. A training step is, on each of the three arrays, one forward read and one pulsed rank-one
+update applied at once (the per-step pulsed schedule: the project's ``outer_update`` with
+``defer`` False; aihwkit's ``update``), with the vectors of a training step (W_q: o and the
+error, W_k: s and the affordance error, W_v: a one-hot action and the error, drawn once from
+seed 0) and the learning rate 0.01. The same schedule on aihwkit: the same vectors, each
+tile's learning rate scaled by aihwkit's weight granularity over the project array's dw_min
+(the weight either controller counts a pulse as), so the pulse trains have the same length
+and the same expected coincidences per device. A planning step is one forward and one
+transposed read of each. The project's step is a compiled loop through the seam
+(:mod:`cml_edge.backends.dispatch`); aihwkit's runs in its own environment (``bash
+scripts/aihwkit_env.sh``), through its public tile API and through the bare compiled tile
+the API wraps. One process and one thread each (torch and aihwkit's OpenMP set to 1 thread);
+microseconds of process CPU time per step, the median of ``repeats`` runs of ``steps`` steps
+after a warm-up.
 
 Pairs: ``float`` against aihwkit's floating-point tile, ``crossbar:pcm`` against the lone
 ``PCMPresetDevice`` and the ``PCMPresetUnitCell`` (the SET-only pair with refresh the
@@ -94,11 +97,29 @@ def project(name: str, steps: int, repeats: int) -> dict[str, float]:
     return figures
 
 
-def theirs(device: str, steps: int, repeats: int) -> dict[str, float]:
-    """Microseconds per step on aihwkit's tiles (public API and bare tile)."""
+def pulse_weights(name: str) -> list[float] | None:
+    """The weight the project's controller counts one pulse as, per array (W_q, W_k, W_v;
+    None: a float array, no pulses)."""
+    backend, options = parse_name(name)
+    states = [a.state for a in CML.create(CMLConfig.for_arena(30), backend, 0,
+                                          **options).arrays]
+    if not hasattr(getattr(states[0], "params", None), "dw_min"):
+        return None
+    return [float(s.params.dw_min) for s in states]
+
+
+def theirs(device: str, dw_min: list[float] | None, steps: int,
+           repeats: int) -> dict[str, float]:
+    """Microseconds per step on aihwkit's tiles (public API and bare tile), each tile's
+    learning rate scaled so that its expected pulses per device and its pulse-train length
+    are the project array's: lr x aihwkit's weight granularity / the array's dw_min."""
     xs, ds = vectors()
+    lrs = [LR] * 3
+    if dw_min is not None:
+        g = runner.run("params", name=device)["granularity"]
+        lrs = [LR * g / d for d in dw_min]
     r = runner.run("bench", device=device, shapes=[[256, 2], [8, 256], [256, 8]],
-                   xs=[x.tolist() for x in xs], ds=[(-d).tolist() for d in ds], lr=LR,
+                   xs=[x.tolist() for x in xs], ds=[(-d).tolist() for d in ds], lrs=lrs,
                    seed=0, steps=steps, repeats=repeats)
     return {k.replace("_s", "_us"): v * 1e6 for k, v in r.items() if k.endswith("_s")}
 
@@ -110,10 +131,11 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     runner.require()
+    dw_min = {name: pulse_weights(name) for name in dict(PAIRS)}
     ours = {name: project(name, args.steps, args.repeats) for name in dict(PAIRS)}
     rows = []
     for name, device in PAIRS:
-        a = theirs(device, max(args.steps // 10, 10), args.repeats)
+        a = theirs(device, dw_min[name], max(args.steps // 10, 10), args.repeats)
         p = ours[name]
         rows.append({"project": name, "aihwkit": device, **{f"project_{k}": v for k, v in
                                                             p.items()},

@@ -108,6 +108,6 @@ def test_aihwkit_presets_map_or_refuse():
 @needs_aihwkit
 def test_worker_times_a_training_and_a_planning_step():
     r = runner.run("bench", device="ReRamSBPresetDevice", shapes=[[16, 2], [8, 16]],
-                   xs=[[0.3, -0.4], [0.1] * 16], ds=[[0.01] * 16, [0.2] * 8], lr=0.01,
+                   xs=[[0.3, -0.4], [0.1] * 16], ds=[[0.01] * 16, [0.2] * 8], lrs=[0.01] * 2,
                    seed=0, steps=3, repeats=1)
     assert all(r[f"{s}_{a}_s"] > 0 for s in ("train", "plan") for a in ("public", "bare"))

@@ -5,9 +5,9 @@ once per process) and mapped onto :class:`~cml_edge.backends.crossbar.config.Dev
 fields. The device's weight range [w_min, w_max] maps linearly onto [g_min, g_max]
 (default 0..25 uS, ``--set g_min=... g_max=...``), its weight zero at ``step_center``
 = -w_min / (w_max - w_min); one pulse is one level, ``levels`` = (w_max - w_min) / dw_min
-+ 1; the update controller counts a pulse as aihwkit's weight granularity (its
-``calcWeightGranularity``: dw_min, for ExpStep the down step at w = 0, so ``pulse_gain``
-= 1 - A_down e^(-gamma_down b)). The rest is the device presets' array (pulsed update,
++ 1; the update controller counts a pulse as aihwkit's weight granularity
+(:func:`~.worker.granularity`: dw_min, for ExpStep the down step at w = 0), ``pulse_gain``
+= granularity / dw_min. The rest is the device presets' array (pulsed update,
 per-walk pulse commit, one-sided pairs, 7-bit DAC, 9-bit ADC with bound 12, W_v's range
 0.02).
 
@@ -20,7 +20,6 @@ never dropped.
 
 from __future__ import annotations
 
-import math
 from functools import cache
 from typing import Any
 
@@ -91,7 +90,6 @@ def describe(preset: str) -> dict[str, Any]:
         refused.append(f"dw_min {dw:g} (not a whole fraction of the range {lo:g}..{hi:g} "
                        "with at most 4095 steps: the project's levels are evenly spaced)")
     fields["levels"] = int(round(levels))
-    gain = 1.0
     if cls == "ExpStepDevice":
         fields.update(exp_a=p["a"], exp_b=p["b"], exp_a_up=p["A_up"], exp_a_down=p["A_down"],
                       exp_gamma_up=p["gamma_up"], exp_gamma_down=p["gamma_down"])
@@ -100,7 +98,6 @@ def describe(preset: str) -> dict[str, Any]:
         if p["dw_min_std"] > 0 and (add or slope):
             fields.update(c2c="complex", c2c_add=add / span, c2c_slope=slope)
         mapped += ["dw_min_std_add", "dw_min_std_slope"]
-        gain = max(1.0 - p["A_down"] * math.exp(-p["gamma_down"] * p["b"]), 0.0) or 1.0
     elif cls in ("SoftBoundsReferenceDevice", "SoftBoundsDevice"):
         fields["c2c"] = "mult" if p.get("mult_noise", True) else "add"
         mapped.append("mult_noise")
@@ -108,7 +105,7 @@ def describe(preset: str) -> dict[str, Any]:
         fields.update(gamma_up=p.get("gamma_up", 0.0), gamma_down=p.get("gamma_down", 0.0),
                       c2c="mult" if p.get("mult_noise", True) else "add")
         mapped += [k for k in ("gamma_up", "gamma_down", "mult_noise") if k in p]
-    fields["pulse_gain"] = gain
+    fields["pulse_gain"] = got["granularity"] / dw
     if "write_noise_std" in p:
         fields["write_noise"] = p["write_noise_std"]
         mapped.append("write_noise_std")

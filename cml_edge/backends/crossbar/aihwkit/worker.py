@@ -62,7 +62,21 @@ def params(req: dict[str, Any]) -> dict[str, Any]:
         return str(v)
 
     return {"name": req["name"], "lineage": [c.__name__ for c in type(dev).__mro__],
-            "fields": {k: plain(v) for k, v in vars(dev).items()}}
+            "fields": {k: plain(v) for k, v in vars(dev).items()},
+            "granularity": granularity(dev)}
+
+
+def granularity(dev: Any) -> float:
+    """The weight aihwkit's update controller counts a pulse as (``calcWeightGranularity``
+    of ``rpu_*_device.h``): dw_min; for ExpStep the down step at w = 0, scaled by the
+    down bias of up_down; for a unit cell the mean over its devices."""
+    if hasattr(dev, "unit_cell_devices"):
+        return sum(map(granularity, dev.unit_cell_devices)) / len(dev.unit_cell_devices)
+    if hasattr(dev, "A_down"):
+        scale_down = (1.0 - max(dev.up_down, 0.0)) * dev.dw_min
+        g = scale_down * max(1.0 - dev.A_down * math.exp(-dev.gamma_down * dev.b), 0.0)
+        return g if g > 0 else dev.dw_min
+    return dev.dw_min
 
 
 def _tile(dev: Any, n: int) -> Any:
@@ -159,12 +173,12 @@ def inference(req: dict[str, Any]) -> dict[str, Any]:
 
 def bench(req: dict[str, Any]) -> dict[str, Any]:
     """Seconds of process CPU time (the median of ``repeats`` runs of ``steps``) per CML
-    training step (each tile: one forward read of ``xs`` and one pulsed rank-one update
-    with ``ds``) and per planning step (each tile: one forward and one transposed read),
-    for float tiles (``FloatingPointRPUConfig``) or a preset device (a unit cell on
-    ``UnitCellRPUConfig``) on ``AnalogTile``s with aihwkit's default pulsed update; the
-    public tile API (``tile.forward`` / ``backward`` / ``update``) and the bare compiled
-    tile (``tile.tile``: the C++ object the public API wraps)."""
+    training step (each tile: one forward read of ``xs`` and one pulsed rank-one update with
+    ``ds`` at its learning rate ``lrs``) and per planning step (each tile: one forward and
+    one transposed read), for float tiles (``FloatingPointRPUConfig``) or a preset device (a
+    unit cell on ``UnitCellRPUConfig``) on ``AnalogTile``s with aihwkit's default pulsed
+    update; the public tile API (``tile.forward`` / ``backward`` / ``update``) and the bare
+    compiled tile (``tile.tile``: the C++ object the public API wraps)."""
     import torch
     from aihwkit.simulator.configs import FloatingPointRPUConfig, SingleRPUConfig, UnitCellRPUConfig
     from aihwkit.simulator.tiles import AnalogTile, FloatingPointTile
@@ -179,8 +193,8 @@ def bench(req: dict[str, Any]) -> dict[str, Any]:
         cfg = UnitCellRPUConfig(device=dev) if hasattr(dev, "unit_cell_devices") else \
             SingleRPUConfig(device=dev)
         tiles = [AnalogTile(o, i, cfg) for o, i in shapes]
-    for t, (o, i) in zip(tiles, shapes):
-        t.set_learning_rate(req["lr"])
+    for t, (o, i), lr in zip(tiles, shapes, req["lrs"]):
+        t.set_learning_rate(lr)
         t.set_weights(0.1 * torch.randn(o, i))
     xs = [torch.tensor([x], dtype=torch.float32) for x in req["xs"]]
     ds = [torch.tensor([d], dtype=torch.float32) for d in req["ds"]]
