@@ -36,7 +36,8 @@ while other jobs share the machine).
 
 Results go to one JSON file (default ``hw_reports/baselines/dqn_results.json``) written
 atomically after every seed, with provenance; ``train`` skips seeds already in it, so an
-interrupted run resumes. Models (SB3 zips) go to ``--models`` (default ``runs/dqn``).
+interrupted run resumes. Models (SB3 zips) go to ``--models`` (``cml-edge dqn train``
+requires it; :func:`train_runs` keeps them in ``runs/dqn`` unless told).
 """
 
 from __future__ import annotations

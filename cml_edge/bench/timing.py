@@ -122,7 +122,7 @@ def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     c = cml.config
     t0 = time.process_time()
     plan_loop(plug, WTA(), arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
-              False, starts, goals, 100, res)
+              False, starts, goals, 0, n, 100, res)
     return (time.process_time() - t0) / max(int(res.steps.sum()), 1)
 
 

@@ -34,7 +34,7 @@ import sys
 
 from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
-from cml_edge.cli.args import limit_options
+from cml_edge.cli.args import hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
 from cml_edge.core.finite import NonFiniteError, check_finite, dumps
@@ -63,12 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
+    hold_estimate(None)
     try:
         with stop_on_signals():
             args = parser.parse_args(argv)
-            estimate = limits.check(args)  # before any work: refuses what will not fit
-            if estimate:
-                print(estimate, file=sys.stderr)
+            hold_estimate(limits.check(args))  # refuses what will not fit; said at the start
             with announce_compiles(args):
                 result = args.run(args)
             text = dumps(result) if getattr(args, "json", False) else None
@@ -83,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
         sig = stop_signal(exc)
         print(f"cml-edge: stopped by {sig.name}; nothing was half-written", file=sys.stderr)
         return 128 + sig
+    finally:
+        hold_estimate(None)
     if text is not None:
         print(text)
     else:

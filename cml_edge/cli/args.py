@@ -78,12 +78,14 @@ SIZES: dict[str, Size] = {
     "first_chip": Size(0, SEED_MAX, "a chip seed of an int64 stream key"),
     "chips": Size(1, 100_000, "each chip trains every model seed again"),
     "walks": Size(1, 100_000, "exploration walks (the paper's 100)"),
-    "steps": Size(1, 1_000_000, "steps per walk (the paper's 900)"),
+    "steps": Size(1, 100_000, "steps per walk (the paper's 900); a stop request may wait "
+                              "for one walk (engine.stop.CHUNK_STEPS)"),
     "dqn:steps": Size(1, 100_000_000, "environment steps per seed (the paper's 1e5..2e5)"),
     "arena": Size(2, 1024, "cells a side: the largest MovingAI benchmark maps are 1024"),
     "trials": Size(1, 1_000_000, "(start, goal) pairs"),
-    "max_steps": Size(1, 1_000_000, "actions per plan (100 for the 30 x 30 arena)"),
-    "max_actions": Size(1, 1_000_000, "actions per drive"),
+    "max_steps": Size(1, 100_000, "actions per plan (100 for the 30 x 30 arena); a stop "
+                                  "request may wait for one plan"),
+    "max_actions": Size(1, 100_000, "actions per drive; a stop request may wait for one"),
     "obstacles": Size(0, 1024 * 1024, "at most every cell of the largest arena"),
     "devices": Size(2, 10_000_000, "devices per point of a characterization"),
     "workers": Size(1, 1024, "worker processes"),
@@ -134,9 +136,25 @@ def positive_float(text: str) -> float:
     return value
 
 
+_ESTIMATE: list[str] = []
+
+
+def hold_estimate(line: str | None) -> None:
+    """Keep the run's estimate line (``engine.limits.check``) until its work starts, so
+    that input refused by the command itself is the only line it prints."""
+    _ESTIMATE[:] = [] if line is None else [line]
+
+
+def say_estimate() -> None:
+    """Print the held estimate line, once: the work starts (a progress bar's first step,
+    a compile, or a command's own call before its runs)."""
+    while _ESTIMATE:
+        tqdm.write(_ESTIMATE.pop(), file=sys.stderr)
+
+
 class Progress:
     """A progress callback ``(done, total)``: a tqdm bar on stderr, drawn only when stderr
-    is a terminal."""
+    is a terminal; its first call says the held estimate (:func:`say_estimate`)."""
 
     def __init__(self, label: str) -> None:
         self.label = label
@@ -144,6 +162,7 @@ class Progress:
 
     def __call__(self, done: int, total: int) -> None:
         if self.bar is None:
+            say_estimate()
             self.bar = tqdm(total=total, desc=self.label, file=sys.stderr, leave=True,
                             disable=not sys.stderr.isatty())
         self.bar.update(done - self.bar.n)

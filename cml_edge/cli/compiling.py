@@ -21,6 +21,8 @@ from contextlib import contextmanager
 from numba.core import event
 from tqdm import tqdm
 
+from cml_edge.cli.args import say_estimate
+
 COLD_MINUTES = "1-3"
 """Rough minutes a command's kernels take to compile on a cold cache: ``emulate`` on the
 crossbar (its kernels, the training and planning loops, the float64 twin and the
@@ -54,6 +56,7 @@ class _Notice(event.Listener):
         if not getattr(func, "__module__", "").startswith("cml_edge."):
             return
         self.said = True
+        say_estimate()
         tqdm.write(f"cml-edge: first run: compiling {self.what} ({self.minutes} min once, "
                    "then cached)", file=sys.stderr)
 

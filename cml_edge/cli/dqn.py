@@ -7,7 +7,7 @@ from typing import Any
 
 from cml_edge.baselines import load_results
 from cml_edge.baselines.dqn import evaluate_runs, train_runs
-from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, MODELS_DIR, RESULTS_PATH, DQNRun
+from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, RESULTS_PATH, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
 from cml_edge.cli.output import labelled, num, pct, plural, secs, table
 from cml_edge.io.files import writable_file, writable_folder
@@ -44,8 +44,8 @@ def add_parsers(subparsers) -> None:
                        help=f"results file ({RESULTS_PATH})")
         q.add_argument("--json", action="store_true", help="print one JSON object on stdout")
         if name == "train":
-            q.add_argument("--models", default=str(MODELS_DIR),
-                           help=f"folder for the trained models ({MODELS_DIR})")
+            q.add_argument("--models", required=True, metavar="FOLDER",
+                           help="folder for the trained models")
         else:
             q.add_argument("--no-cml", action="store_true",
                            help="skip training and evaluating the CML beside it")

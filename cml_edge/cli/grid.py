@@ -23,6 +23,7 @@ from cml_edge.cli.args import (
     finite_float,
     nonneg_int,
     positive_int,
+    say_estimate,
 )
 from cml_edge.cli.output import (
     device_label,
@@ -240,6 +241,7 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
+    say_estimate()
     res = Evaluation(arena, pairs, budget, args.planner).plan(cml, path)
     result = summarize(res.final, res.steps, pairs)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
@@ -286,6 +288,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
             raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
     starts, goals = np.array([args.start]), np.array([args.goal])
     path = default_path(cml)
+    say_estimate()
     res = plan(cml, arena, starts, goals, max_steps=_budget(args, arena.size, grid is not None),
                path=path, planner=args.planner)
     steps = int(res.steps[0])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from cml_edge.cli.args import (
@@ -14,6 +15,7 @@ from cml_edge.cli.args import (
     command_line,
     finite_float,
     positive_int,
+    say_estimate,
 )
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.core.finite import dumps
@@ -39,15 +41,19 @@ def _add_common(p: argparse.ArgumentParser, seeds: int) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
+def _add_restart(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--restart", action="store_true",
+                   help="start the run in --out over (a run folder of other settings is "
+                        "refused without it)")
+
+
 def add_parsers(sub) -> None:
     """The scenario and break-point commands."""
     p = sub.add_parser("scenario", help="run a named scenario on a device (resumable sweep)")
     p.add_argument("name", help=f"scenario: {', '.join(SCENARIOS)}")
     _add_common(p, 10)
     p.add_argument("--out", default=None, help="folder: tasks/ (resumable) and results.json")
-    p.add_argument("--restart", action="store_true",
-                   help="start the run in --out over (a run folder of other settings is "
-                        "refused without it)")
+    _add_restart(p)
     add_chip_flags(p)
     p.set_defaults(run=cmd_scenario, show=show_scenario)
 
@@ -64,6 +70,7 @@ def add_parsers(sub) -> None:
     _add_common(p, 3)
     p.add_argument("--out", default=None,
                    help="folder: one resumable sweep per knob value, and breakpoint.json")
+    _add_restart(p)
     p.set_defaults(run=cmd_breakpoint, show=show_breakpoint)
 
 
@@ -101,6 +108,12 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def _say_before_runs(notes: list[str]) -> None:
+    say_estimate()
+    for note in notes:
+        print(f"cml-edge: note: {note}", file=sys.stderr)
+
+
 def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.errors import InputError
 
@@ -112,7 +125,8 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
     result = find_breakpoint(args.scenario, args.backend, args.knob, backend_options(args),
                              args.target, args.seeds, tuple(args.range) if args.range else None,
                              _budget(args), args.part, args.out, args.workers, args.scheduler,
-                             command_line())
+                             command_line(), args.restart,
+                             on_start=_say_before_runs)
     if args.out is not None:
         atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
     return result

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from cml_edge.backends import BACKENDS
-from cml_edge.cli.args import Progress, command_line, positive_int
+from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
 from cml_edge.cli.output import num, plural, table
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
@@ -23,7 +23,8 @@ def add_parsers(sub) -> None:
                        "local process pool or a Dask cluster; resumable")
     p.add_argument("experiment", help="convergence, hyperparams, exploration, generalization, "
                    "obstacles, maps or backends")
-    p.add_argument("--out", default=None, help="folder (default runs/experiments/EXPERIMENT)")
+    p.add_argument("--out", required=True, metavar="FOLDER",
+                   help="folder: tasks/ (resumable), results.json, .csv and the figure")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -45,8 +46,8 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
                        "figures)")
-    p.add_argument("--out", default="hw_reports/latest",
-                   help="report folder (default hw_reports/latest)")
+    p.add_argument("--out", required=True, metavar="FOLDER",
+                   help="report folder (report.md, report.json, figures)")
     p.add_argument("--quick", action="store_true",
                    help="few seeds and trials: minutes instead of the full protocol")
     p.add_argument("--dqn-results", default=None, metavar="FILE",
@@ -88,6 +89,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     writable_folder(args.out, "--out")
     writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
+    say_estimate()
     report = build_report(quick=args.quick, command=command_line(),
                           progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
     folder = write_report(report, args.out)
@@ -113,12 +115,12 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge import experiments
     from cml_edge.engine.sweep import check_scheduler
-    from cml_edge.experiments.common import OUT_ROOT, run_experiment
+    from cml_edge.experiments.common import run_experiment
 
     module = experiments.get(args.experiment)
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
-    writable_folder(args.out or OUT_ROOT / module.NAME, "--out")
+    writable_folder(args.out, "--out")
     if args.scen and not args.map:
         raise InputError("--scen needs --map")
     if args.map:  # fail on a bad file now, before any task runs

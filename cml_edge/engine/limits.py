@@ -25,7 +25,14 @@ median time per unit:
 - :data:`DEVICE_BYTES`, :data:`DEVICE_S`: ``characterize("pcm", devices=200000)`` peaks
   at 944 bytes per device (a column of devices per target and time, with its twin) and
   took 640 us per device on a core shared with two other jobs;
+- :data:`DQN_STEP_S`: a DQN environment step with its gradient step (stable-baselines3 on
+  torch's CPU build): 205 s of CPU for 100,000 steps (hw_reports/baselines/dqn_results.json,
+  the simplified reward's seed 0), 2 ms;
 - :data:`BASE_BYTES`: the interpreter, NumPy and Numba with their kernels loaded, 400 MB.
+
+A scenario's or a break point's sizes are its budget's (walks x steps a model and its
+float64 twin, trials x step budget in each part); a break point evaluates
+:data:`BREAKPOINT_RUNS` knob values at most.
 """
 
 from __future__ import annotations
@@ -43,6 +50,8 @@ PATH_BYTES = 32.0
 CELL_BYTES = 64.0
 DEVICE_BYTES = 1e3
 DEVICE_S = 640e-6
+DQN_STEP_S = 2e-3
+BREAKPOINT_RUNS = 10
 BASE_BYTES = 400e6
 LOUD_S = 600.0
 """A run estimated to take longer prints its estimate on stderr."""
@@ -103,27 +112,59 @@ def estimate(args: Any) -> Estimate:
     trains the paper's 100 walks x 900 steps a model)."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
     models = seeds * chips
+    step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(os.cpu_count() or 1)
+    trials = _get(args, "trials", 0)
+    budget = _get(args, "max_steps", _get(args, "max_actions", PLAN_BUDGET))
+    plans, plan_label = trials * budget, f"--trials {trials:g} x a step budget of {budget:g}"
     if hasattr(args, "walks"):  # a command that trains: its walks x steps
         walks, steps = _get(args, "walks", DEFAULT_WALKS), _get(args, "steps", DEFAULT_STEPS)
-    elif hasattr(args, "seeds") and not hasattr(args, "steps"):  # a scenario or a sweep
+    elif getattr(args, "command", None) == "dqn":  # seeds one after another, on one core
+        from cml_edge.baselines.settings import DEFAULT_STEPS as DQN_STEPS
+
+        walks, step_s, cores = 1.0, DQN_STEP_S, 1.0
+        steps = _get(args, "steps", DQN_STEPS.get(getattr(args, "reward", None), 0))
+        if args.dqn_command != "train":  # evaluate: the trained seeds' plans only
+            walks = steps = 0.0
+    elif getattr(args, "command", None) in ("scenario", "breakpoint"):
+        walks, steps, plans, repeat, budget_name = _scenario_sizes(args)
+        plan_label = f"--budget {budget_name}"
+    elif hasattr(args, "seeds") and not hasattr(args, "steps"):  # a sweep
         walks, steps = DEFAULT_WALKS, DEFAULT_STEPS
-    else:  # a command whose steps are its own (the DQN's), or none
+    else:
         walks, steps = 1.0, _get(args, "steps", 0)
-    trials, budget = _get(args, "trials", 0), _get(args, "max_steps", PLAN_BUDGET)
     side = _get(args, "arena", 0)
     devices = _get(args, "devices", 0)
-    workers = max(1.0, min(_get(args, "workers", os.cpu_count() or 1), os.cpu_count() or 1))
+    workers = max(1.0, min(_get(args, "workers", cores), cores))
     terms = {
         f"--seeds {seeds:g}" + (f" x --chips {chips:g}" if chips > 1 else ""):
             models * TASK_BYTES,
-        f"--trials {trials:g} x a step budget of {budget:g}": trials * budget * PATH_BYTES,
+        plan_label: plans * PATH_BYTES,
         f"--arena {side:g}": side * side * CELL_BYTES,
         f"--devices {devices:g}": devices * DEVICE_BYTES,
     }
-    seconds = (models * (walks * steps * TRAIN_STEP_S + trials * budget * PLAN_STEP_S)
-               / workers + devices * DEVICE_S)
+    seconds = (models * repeat * (walks * steps * step_s + plans * PLAN_STEP_S) / workers
+               + devices * DEVICE_S)
     ranked = tuple(sorted(((k, v) for k, v in terms.items() if v > 0), key=lambda kv: -kv[1]))
     return Estimate(BASE_BYTES + sum(terms.values()), seconds, ranked, int(workers))
+
+
+def _scenario_sizes(args: Any) -> tuple[float, float, float, float, str]:
+    """(walks, steps, plan steps, repeats, budget name) of a scenario's or break point's
+    model seed: its runs' training with their float64 twins, its parts' trials x their
+    step budgets, once (a break point: :data:`BREAKPOINT_RUNS` times); an unknown scenario
+    counts nothing (it is refused later)."""
+    from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
+
+    scenario = SCENARIOS.get(getattr(args, "name", None) or getattr(args, "scenario", None))
+    name = "quick" if getattr(args, "quick", False) else getattr(args, "budget", None) or "full"
+    if scenario is None or name not in BUDGETS:
+        return 0.0, 0.0, 0.0, 1.0, name
+    b = BUDGETS[name]
+    runs = [run for _, run in scenario.runs(b)]
+    repeat = BREAKPOINT_RUNS if args.command == "breakpoint" else 1
+    plan_steps = sum(p["trials"] * (p["max_steps"] or PLAN_BUDGET)
+                     for run in runs for p in run["parts"])
+    return 2.0 * len(runs) * b.walks, float(b.steps), float(plan_steps), float(repeat), name
 
 
 def check(args: Any, memory: int | None = None) -> str | None:

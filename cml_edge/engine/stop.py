@@ -6,8 +6,8 @@ process that started them.
 file being written is dropped (:mod:`cml_edge.io.files` writes under a temporary name),
 the task pool ends its workers (:func:`cml_edge.engine.sweep.run_sweep`), and the command
 exits with 128 + the signal's number. Python handles a signal between two of its
-instructions, so a compiled loop is stopped when it returns: the loops return after a
-bounded chunk of work (training every ``epoch`` walks, a task, a chip).
+instructions, so a compiled loop is stopped when it returns: the training and planning
+loops are called on :func:`chunks` of at most :data:`CHUNK_STEPS` steps.
 
 :func:`worker_init` starts each pool worker: it ignores SIGINT (Ctrl-C reaches the whole
 process group; the parent stops the pool), dies on SIGTERM, and dies with its parent,
@@ -29,6 +29,17 @@ from contextlib import contextmanager
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 WATCH_S = 0.5  # how often a worker looks for its parent
+CHUNK_STEPS = 100_000
+"""Steps of a compiled loop per call: a stop request waits for at most this many (about
+1 s at the slowest device's 10 us a step, benchmarks/README.md)."""
+
+
+def chunks(start: int, end: int, steps: int) -> list[tuple[int, int]]:
+    """Ranges (a, b) covering items ``start .. end - 1`` (walks or trials of up to ``steps``
+    steps each) in order, each of at most :data:`CHUNK_STEPS` steps but one item at
+    least."""
+    per = max(1, CHUNK_STEPS // max(int(steps), 1))
+    return [(a, min(a + per, end)) for a in range(start, end, per)]
 
 
 class Stopped(KeyboardInterrupt):

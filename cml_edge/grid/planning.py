@@ -28,6 +28,7 @@ from numba import njit
 
 from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import FactoredScorer, SeamScorer, prepare, scores, wta
+from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena, available_moves, observe
 from cml_edge.grid.escape import WALL_NEXT, Escape, escape_choose, escape_reset
@@ -106,8 +107,9 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     chooser = Escape.of(arena.size, max_steps) if planner == "escape" else WTA()
     loop = plan_loop.py_func if path == "reference" else plan_loop
     c = cml.config
-    loop(scorer, chooser, arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
-         planner == "escape", starts, goals, max_steps, res)
+    for t0, t1 in chunks(0, n, max_steps):
+        loop(scorer, chooser, arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
+             planner == "escape", starts, goals, t0, t1, max_steps, res)
     return res
 
 
@@ -129,14 +131,15 @@ def decision_inputs(x, y, gx, gy, origin, scale, o, dgo):
 
 
 @kernel
-def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, max_steps,
-              res):
-    """Plan every (start, goal) pair (the module docstring), for any scorer and chooser. A
-    :func:`~cml_edge.jit.kernel.kernel`: no decision pays reference counts."""
-    prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
+def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, t0, t1,
+              max_steps, res):
+    """Plan (start, goal) pairs ``t0 .. t1 - 1`` (the module docstring), for any scorer and
+    chooser. A :func:`~cml_edge.jit.kernel.kernel`: no decision pays reference counts."""
+    if t0 == 0:
+        prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
     o, dgo, u, score, mask = res.work
-    for trial in range(starts.shape[0]):
+    for trial in range(t0, t1):
         reset(chooser)
         x = starts[trial, 0]
         y = starts[trial, 1]

@@ -43,6 +43,7 @@ from cml_edge.core.cml import CML
 from cml_edge.core.finite import check_weights
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
+from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, GridArena, observe
 from cml_edge.grid.exploration import (
@@ -108,8 +109,8 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     done = 0
     while done < config.walks:
         stop = min(done + epoch, config.walks)
-        loop(learner, explorer, c.obs_origin, c.obs_scale, first_walk + done, first_walk + stop,
-             config.steps, errors)
+        for w0, w1 in chunks(first_walk + done, first_walk + stop, config.steps):
+            loop(learner, explorer, c.obs_origin, c.obs_scale, w0, w1, config.steps, errors)
         done = stop
         if on_epoch is not None:
             on_epoch(done)

@@ -27,6 +27,7 @@ from numba import njit
 
 from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import SeamScorer, prepare, scores, wta
+from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.rng import stream_key, uniform
@@ -103,18 +104,20 @@ def drive_work(n_i: int) -> tuple:
 
 
 @kernel
-def plan_loop(scorer, sim, frame, normalize, starts, goals, max_actions, radius,
+def plan_loop(scorer, sim, frame, normalize, starts, goals, t0, t1, max_actions, radius,
               stop_each_step, sub, work, res):
-    """Drive every (start, goal) (the module docstring), for any scorer and simulator;
+    """Drive (start, goal) pairs ``t0 .. t1 - 1`` (the module docstring), for any scorer and
+    simulator;
     ``sub`` ((steps per action + 1, 3)) receives each action's simulation steps, ``work``
     is :func:`drive_work`'s. A :func:`~cml_edge.jit.kernel.kernel`: no decision pays
     reference counts."""
     n_i = 2 if frame.mode == XY else 4
-    prepare(scorer, normalize, False)
+    if t0 == 0:
+        prepare(scorer, normalize, False)  # W_v's columns, read once per batch
     final, steps, reached, lengths, poses, actions, trails, trail_len = res
     keep = trails.shape[1] > 0
     u, score, pose, new, o, o_star, dgo, mask = work
-    for trial in range(starts.shape[0]):
+    for trial in range(t0, t1):
         sim_reset(sim, starts[trial], pose)
         gx = goals[trial, 0]
         gy = goals[trial, 1]
@@ -187,8 +190,10 @@ def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goal
     compiled = path == "direct" and isinstance(sim, KinematicSim)
     loop = plan_loop if compiled else plan_loop.py_func
     sub = np.zeros((sim.config.steps_per_action + 1, 3))
-    loop(scorer, sim.plugin, settings.frame(), cml.config.utility == "normalized", starts, goals,
-         max_actions, float(radius), stop == "step", sub, drive_work(settings.n_i), res)
+    work = drive_work(settings.n_i)
+    for t0, t1 in chunks(0, n, max_actions * sim.config.steps_per_action):
+        loop(scorer, sim.plugin, settings.frame(), cml.config.utility == "normalized", starts,
+             goals, t0, t1, max_actions, float(radius), stop == "step", sub, work, res)
     return res
 
 

@@ -29,6 +29,7 @@ from cml_edge.core.cml import CML
 from cml_edge.core.finite import check_weights
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
 from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
+from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.rng import stream_key, uniform
@@ -46,6 +47,9 @@ from cml_edge.robot.sim import (
 )
 
 PATHS = ("direct", "reference")
+
+EPOCH = 10
+"""``on_walk`` is called every EPOCH walks and at the end."""
 
 
 @dataclass(frozen=True)
@@ -147,14 +151,14 @@ def train_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Rob
     errors = np.zeros(config.walks)
     o_sq = np.zeros(config.walks)
     rc = sim.config
-    chunk = 10
     work = walk_work(settings.n_i)
-    for w0 in range(0, config.walks, chunk):
-        w1 = min(w0 + chunk, config.walks)
-        loop(learner, sim.plugin, settings.frame(), keys, rc.lo, rc.hi, w0, w1, config.steps,
-             errors, o_sq, work)
+    for e0 in range(0, config.walks, EPOCH):
+        e1 = min(e0 + EPOCH, config.walks)
+        for w0, w1 in chunks(e0, e1, config.steps):
+            loop(learner, sim.plugin, settings.frame(), keys, rc.lo, rc.hi, w0, w1,
+                 config.steps, errors, o_sq, work)
         if on_walk is not None:
-            on_walk(w1)
+            on_walk(e1)
     check_weights(cml, "training", seed)
     return {"train_error": errors, "eq3_gain": float(cml.config.lr_q * config.steps * o_sq.max()),
             "mean_o_sq": float(o_sq.mean())}

@@ -141,16 +141,23 @@ class NotBracketedError(InputError):
         super().__init__("range does not bracket the target")
         self.seen = seen
 
+TINY_NOTE = ("--budget tiny is a smoke test (3 walks x 100 steps a model): its models reach "
+             "little success, so a break point is rarely found")
+
 
 def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, Any] | None = None,
                     target: float = 0.95, seeds: int = 3, value_range: tuple[float, float]
                     | None = None, budget: str = "full", part: str | None = None,
                     out: str | Path | None = None, workers: int | None = None,
-                    scheduler: str | None = None, command: str | None = None
+                    scheduler: str | None = None, command: str | None = None,
+                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None
                     ) -> dict[str, Any]:
     """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
     ``options``: the device's other settings (the knob's field overrides them); ``out``:
-    each evaluation's sweep under ``out/KNOB=VALUE`` (resumable)."""
+    each evaluation's sweep under ``out/KNOB=VALUE`` (resumable; a sweep of other settings
+    there is refused unless ``restart``, which starts each over). ``on_start`` is called
+    once the inputs are checked, before the first run, with notes the user should read
+    first."""
     scen = get(scenario)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; known: {', '.join(BUDGETS)}")
@@ -187,13 +194,15 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     grid = knob_grid(k, lo, hi)
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
+    if on_start is not None:
+        on_start([TINY_NOTE] if budget == "tiny" else [])
     evaluations: list[dict[str, Any]] = []
 
     def passes(value: float) -> bool:
         setting, idle = knob_setting(k, value)
         res = run_scenario(scenario, backend, {**(options or {}), **setting}, seeds, budget,
                            Path(out) / f"{knob}={value}" if out is not None else None,
-                           workers, scheduler, idle_s=idle)
+                           workers, scheduler, idle_s=idle, restart=restart)
         success = scenario_success(res, part)
         evaluations.append({"value": value, "success_rate": success,
                             "parts": {p["part"]: p["success_rate"] for p in res["parts"]}})

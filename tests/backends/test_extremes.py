@@ -68,8 +68,8 @@ def test_absurd_device_values_are_refused_in_one_line(cli, tmp_path, setting):
     (["scenario", "paper", "--chips", "1000000000"], "--chips, 1..100000"),
     (["emulate", "--arena", "100000"], "--arena, 2..1024"),
     (["device", "characterize", "--devices", "1000000000"], "--devices"),
-    (["train", "--steps", "1000000000000", "--out", "x.npz"], "--steps, 1..1e+06"),
-    (["emulate", "--trials", "1000000", "--max-steps", "1000000"], "would need ~32 TB"),
+    (["train", "--steps", "1000000000000", "--out", "x.npz"], "--steps, 1..100000"),
+    (["emulate", "--trials", "1000000", "--max-steps", "100000"], "would need ~3.2 TB"),
     (["scenario", "paper", "--seeds", "100000", "--chips", "100000"], "--seeds 100000 x"),
     (["emulate", "--backend", "crossbar", "--levels", "8", "--set", "levels=16"],
      "--levels 8 conflicts with --set levels=16"),
@@ -106,6 +106,27 @@ def test_the_estimate_scales_with_the_sizes():
                                          r"this machine has 1 GB"):
         limits.check(Namespace(devices=10_000_000), memory=10**9)
     assert limits.total_memory() > 2**28
+
+
+def test_the_estimate_knows_each_command_s_own_sizes():
+    """A DQN step costs a network update; a drive's budget is --max-actions; a scenario's
+    sizes are its budget's and its parts', a break point's several runs of them."""
+    from cml_edge.cli import build_parser
+
+    def est(*argv):
+        return limits.estimate(build_parser().parse_args([str(a) for a in argv]))
+
+    dqn, cml = est("dqn", "train", "--seeds", 1, "--steps", 10**6), est(
+        "train", "--walks", 1000, "--steps", 1000, "--out", "m.npz")
+    assert dqn.seconds > 100 * cml.seconds
+    with pytest.raises(InputError, match=r"^--trials 1e\+06 x a step budget of 100000 "):
+        limits.check(build_parser().parse_args(
+            ["robot", "evaluate", "r.npz", "--trials", "1000000", "--max-actions", "100000"]))
+    full, tiny = est("scenario", "paper", "--seeds", 2), est("scenario", "paper", "--seeds", 2,
+                                                              "--budget", "tiny")
+    assert full.seconds > 100 * tiny.seconds and "--budget full" in dict(full.terms)
+    bp = est("breakpoint", "--scenario", "paper", "--knob", "bits", "--seeds", 2)
+    assert bp.seconds == pytest.approx(limits.BREAKPOINT_RUNS * full.seconds)
 
 
 # valid extremes ---------------------------------------------------------------------------

@@ -100,7 +100,8 @@ def test_parser_and_one_line_errors(tmp_path, capsys):
 
     parser = argparse.ArgumentParser()
     add_dqn_parser(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["dqn", "train", "--reward", "tailored", "--goal-conditioned"])
+    args = parser.parse_args(["dqn", "train", "--reward", "tailored", "--goal-conditioned",
+                              "--models", "m"])
     assert args.dqn_command == "train" and args.goal_conditioned and args.steps is None
     code = cli_main(["dqn", "evaluate", "--results", str(tmp_path / "none.json"), "--no-cml"])
     err = capsys.readouterr().err
@@ -259,7 +260,8 @@ def test_bad_results_files_exit_2(tmp_path, capsys, text, needle):
     results = tmp_path / "results.json"
     results.write_text(text)
     for argv in (["dqn", "evaluate", "--results", str(results), "--no-cml"],
-                 ["dqn", "train", "--results", str(results), "--steps", "10"],
+                 ["dqn", "train", "--results", str(results), "--steps", "10", "--models",
+                  str(tmp_path / "m")],
                  ["report", "--quick", "--dqn-results", str(results), "--out",
                   str(tmp_path / "r")]):
         assert cli_main(argv) == 2

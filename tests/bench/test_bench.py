@@ -69,7 +69,7 @@ def test_fused_scorer_plans_as_the_direct_path(utility):
     c = cml.config
     plan_loop(SCORERS["fused"](cml), WTA(), arena.free, c.obs_origin, c.obs_scale,
               utility == "normalized", False, np.ascontiguousarray(pairs.starts, np.int64),
-              np.ascontiguousarray(pairs.goals, np.int64), 100, res)
+              np.ascontiguousarray(pairs.goals, np.int64), 0, n, 100, res)
     for field in ("final", "steps", "paths"):
         assert np.array_equal(getattr(res, field), getattr(ref, field))
     assert ref.steps.sum() > 0

@@ -318,6 +318,9 @@ CASES: list[tuple[str, str]] = [
     ("dqn-train-results-under-file", f"dqn train --results {{f}}/r.json {D2}"),
     ("dqn-train-results-proc", f"dqn train --results /proc/cml-edge-x/r.json --seeds 1 "
                                f"--steps 10 {D2}"),
+    ("dqn-train-no-models", f"dqn train --seeds 1 --steps 10 {DQN}"),
+    ("sweep-no-out", "sweep convergence --seeds 1"),
+    ("report-no-out", "report --quick"),
     ("dqn-train-models-file", f"dqn train --models {{f}} {DQN}"),
     ("dqn-evaluate-results-missing", "dqn evaluate --results {t}/none.json"),
     ("dqn-evaluate-results-text", "dqn evaluate --results {f}"),

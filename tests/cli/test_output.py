@@ -37,7 +37,7 @@ CROSSBAR_COUNTERS = {
     "matvecs", "rmatvecs", "analog_macs", "dac_conversions", "adc_conversions",
     "adc_saturations", "outer_updates", "acc_writes", "line_pulses", "coincidences",
     "device_pulses", "devices_written", "commits", "rng_draws", "refreshes", "refresh_pulses",
-    "calibration_reads", "bm_rereads"}
+    "calibration_reads", "bm_rereads", "pulses_capped"}
 
 
 def test_the_emulate_table_names_the_preset_and_its_fidelity_on_one_screen(cli):

@@ -34,7 +34,7 @@ def commands(bad):
         ("--out", ["export", "missing.npz", "--format", "lava", "--out", bad]),
         ("--out", ["device", "characterize", "--out", f"{bad}/c.json"]),
         ("--plot", ["device", "characterize", "--plot", f"{bad}/c.png"]),
-        ("--results", ["dqn", "train", "--results", f"{bad}/r.json"]),
+        ("--results", ["dqn", "train", "--results", f"{bad}/r.json", "--models", "m"]),
         ("--models", ["dqn", "train", "--results", "r.json", "--models", bad]),
     ]
 

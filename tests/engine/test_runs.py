@@ -133,3 +133,17 @@ def test_emulate_chips_write_only_where_asked(cli, tmp_path, monkeypatch):
     assert code == 2 and "protocol.eval_seed: " in err, err
     code, _, err = cli(*small, "--eval-seed", 5, "--chips-out", "c", "--restart")
     assert code == 0, err
+
+
+@pytest.mark.slow
+def test_a_breakpoint_folder_of_other_settings_is_refused_unless_restarted(cli, tmp_path):
+    out = tmp_path / "bp"
+    bp = ["breakpoint", "--scenario", "paper", "--knob", "bits", "--backend", "fixed",
+          "--budget", "tiny", "--range", 4, 8, "--workers", 1, "--out", out, "--json"]
+    code, _, err = cli(*bp)
+    assert code == 0 and "note: --budget tiny is a smoke test" in err, err
+    code, _, err = cli(*bp, "--act-bits", 6)
+    last = err.strip().splitlines()[-1]  # after the tiny budget's note
+    assert code == 2 and last.startswith("cml-edge: error: ") and "--restart" in last, err
+    code, again, err = cli(*bp, "--act-bits", 6, "--restart")
+    assert code == 0 and json.loads(again)["knob"] == "bits", err

@@ -25,7 +25,8 @@ def test_every_default_range_is_valid_for_every_backend_that_leaves_the_field_fr
 
 def fake_scenario(success):
     """A stand-in for run_scenario whose success is ``success(knob value)``."""
-    def run(scenario, backend, options, seeds, budget, out, workers, scheduler, idle_s):
+    def run(scenario, backend, options, seeds, budget, out, workers, scheduler, idle_s,
+            restart=False):
         value = options.get("read_noise", idle_s)
         return {"scenario": scenario, "parts": [{"part": "p", "success_rate": success(value)}]}
     return run

@@ -122,7 +122,7 @@ class CrossbarArray(SynapticArray):
         "matvecs", "rmatvecs", "analog_macs", "dac_conversions", "adc_conversions",
         "adc_saturations", "outer_updates", "acc_writes", "line_pulses", "coincidences",
         "device_pulses", "devices_written", "commits", "rng_draws", "refreshes",
-        "refresh_pulses", "calibration_reads", "bm_rereads",
+        "refresh_pulses", "calibration_reads", "bm_rereads", "pulses_capped",
     )
     assert len(counter_names) == N_COUNTERS
 

@@ -386,9 +386,18 @@ CrossbarParams = kernel_record(DeviceConfig, "CrossbarParams", __name__, derived
     "w_max": float,  # this array's weight of a full conductance swing
     "g_per_w": float,  # (g_max - g_min) / w_max
     "dw_min": float,  # nominal weight step of one pulse, 2 dG w_max / (g_max - g_min)
+    "pulse_cap": int,  # most pulses a commit sends a pair (PULSE_CAP_SWEEPS (levels - 1))
     "dac_step": float,  # input step of the DAC on [-1, 1]; 0 = ideal
     "adc_step": float,  # output step of the ADC on [-adc_bound, adc_bound]; 0 = ideal
 })
+
+
+PULSE_CAP_SWEEPS = 4
+"""A ``pulse`` commit sends a pair at most this many sweeps of its device's range,
+``PULSE_CAP_SWEEPS (levels - 1)`` pulses: a linear device crosses its range in levels - 1
+pulses and a soft-bounds one comes within e^-8 of its bound in four sweeps, so more would
+only hold a device at its bound. The rest is dropped and counted (``pulses_capped``); it
+also bounds a commit's work whatever ``pulse_gain`` and ``levels`` ask."""
 
 
 def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
@@ -401,6 +410,7 @@ def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     return build_record(
         CrossbarParams, config, dG=dG, w_max=w_max, g_per_w=grange / w_max,
         dw_min=(devices * config.pulse_gain) * dG * w_max / grange,
+        pulse_cap=PULSE_CAP_SWEEPS * max(config.levels - 1, 0),
         dac_step=_step(1.0, config.dac_bits), adc_step=_step(config.adc_bound, config.adc_bits))
 
 
@@ -501,7 +511,27 @@ _RERAM_SYMMETRIC = dict(
     up_down_dtod=0.01, bounds="soft", prog_noise=1.0, prog_c0=4.782321,
     prog_c1=-0.009107 * 225.0, prog_c2=0.0, prog_gref=225.0, read_noise=0.01)
 
-PRESETS: dict[str, dict[str, Any]] = {
+class _Presets(dict):
+    """The named presets, and ``aihwkit:NAME``: one of IBM aihwkit's preset devices, its
+    parameters read in aihwkit's environment and mapped onto the fields
+    (:mod:`cml_edge.backends.crossbar.aihwkit.presets`; unmodelled parameters refused)."""
+
+    def __contains__(self, name: object) -> bool:
+        return super().__contains__(name) or _is_aihwkit(name)
+
+    def __missing__(self, name: str) -> dict[str, Any]:
+        if not _is_aihwkit(name):
+            raise KeyError(name)
+        from cml_edge.backends.crossbar.aihwkit.presets import preset_fields
+
+        return preset_fields(name)
+
+
+def _is_aihwkit(name: object) -> bool:
+    return isinstance(name, str) and name.startswith("aihwkit:")
+
+
+PRESETS: dict[str, dict[str, Any]] = _Presets({
     "ideal": {"w_headroom": 4.0},
     # the full statistical PCM model (module docstring)
     "pcm": dict(
@@ -524,7 +554,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # the pcm and reram presets of earlier releases, bit for bit
     "pcm-symmetric": _PCM_SYMMETRIC,
     "reram-symmetric": _RERAM_SYMMETRIC,
-}
+})
 
 
 def make_config(preset: str = DEFAULT_PRESET, **overrides: Any) -> DeviceConfig:

@@ -48,6 +48,7 @@ from cml_edge.backends.crossbar.codes import (
     OK,
     ONE_SIDED,
     OUTER_UPDATES,
+    PULSES_CAPPED,
     REFRESH_PULSES,
     REFRESHES,
     RMATVECS,
@@ -476,8 +477,8 @@ def analog_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
 
 def commit(state: State) -> None:
     """Apply the accumulator, pair by pair, row by row: n = trunc(acc / dw_min) whole steps
-    (the rest stays), sent as |n| pulses (``commit`` pulse) or written by write-verify to
-    the target they make (program; continuous: the whole acc)."""
+    (the rest stays), sent as |n| pulses, at most ``pulse_cap`` (``commit`` pulse), or
+    written by write-verify to the target they make (program; continuous: the whole acc)."""
     P = state.params
     c = state.counters
     c[COMMITS] += 1
@@ -500,6 +501,9 @@ def commit(state: State) -> None:
                 state.acc[i, j] = 0.0
                 delta = a * (0.5 * P.g_per_w)
             if P.commit == COMMIT_PULSE:
+                if abs(n) > P.pulse_cap:  # dropped: it would only hold the pair at its bound
+                    c[PULSES_CAPPED] += abs(n) - P.pulse_cap
+                    n = P.pulse_cap if n > 0 else -P.pulse_cap
                 c[DEVICES_WRITTEN] += per_pair
                 c[DEVICE_PULSES] += per_pair * abs(n)
                 c[LINE_PULSES] += 2 * per_pair * abs(n)  # a pulse drives a row and a column

@@ -5,9 +5,11 @@ Update, W += lr post pre^T:
 
 - per walk (``defer``): lr post pre^T is added to a digital float64 accumulator
   (``acc``; :func:`accumulate`); the commit (:func:`commit_accumulated`) then, by
-  ``commit`` mode, sends n = trunc(acc / dw_min) programming pulses to each pair and
-  keeps the remainder in the accumulator (mixed precision), or write-verifies each pair
-  whose target moved, drawing fresh programming noise for it (:func:`_program_device`);
+  ``commit`` mode, sends n = trunc(acc / dw_min) programming pulses to each pair (at most
+  ``pulse_cap``, :data:`~cml_edge.backends.crossbar.config.PULSE_CAP_SWEEPS`; the excess is
+  dropped and counted) and keeps the remainder in the accumulator (mixed precision), or
+  write-verifies each pair whose target moved, drawing fresh programming noise for it
+  (:func:`_program_device`);
 - in place (not ``defer``), ``pulsed`` (:func:`pulsed_update`): the stochastic
   coincidence update of Gokmen & Vlasov (2016). BL = min(ceil(lr max|x| max|d| / dw_min),
   bl_max) slots; column j fires in each slot with probability A |x_j|, row i with
@@ -62,6 +64,7 @@ from cml_edge.backends.crossbar.codes import (
     LINE_PULSES,
     OK,
     ONE_SIDED,
+    PULSES_CAPPED,
     REFRESH_PULSES,
     REFRESHES,
     RNG_DRAWS,
@@ -507,6 +510,9 @@ def commit_accumulated(state):
                 acc[i, j] = 0.0
                 delta = a * half
             if pulse:
+                if abs(n) > P.pulse_cap:  # more would only hold the pair at its bound
+                    counters[PULSES_CAPPED] += abs(n) - P.pulse_cap
+                    n = P.pulse_cap if n > 0 else -P.pulse_cap
                 written += per_pair
                 pulses += per_pair * abs(n)
                 ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters,

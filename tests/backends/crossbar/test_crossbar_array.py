@@ -241,6 +241,28 @@ def test_accumulate_then_pulse_keeps_the_remainder():
     np.testing.assert_allclose(arr.to_float()[:, 0], [5 * step, -5 * step, 0.0], atol=1e-12)
 
 
+def test_a_commit_sends_a_pair_at_most_four_sweeps_of_pulses():
+    """levels 11: 40 pulses at most; the rest is dropped and counted, the same on the
+    reference path."""
+    import copy
+
+    from cml_edge.backends.crossbar import reference
+
+    arr = xbar(np.zeros((3, 2)), w_max_q=1.0, **{**CLEAN, "levels": 11})
+    post, pre = np.array([1.0, -1.0, 0.02]), np.array([1.0, 0.0])
+    arr.outer_update(post, pre, 100.25 * arr.dw_min, defer=True)
+    twin = copy.deepcopy(arr.state)
+    arr.commit()
+    reference.commit(twin)
+    np.testing.assert_allclose(arr.to_float()[:, 0], [1.0, -1.0, 2 * arr.dw_min], atol=1e-12)
+    assert arr.counters["pulses_capped"] == 2 * (100 - 40)
+    assert arr.counters["device_pulses"] == 2 * (40 + 40 + 2)
+    np.testing.assert_allclose(arr.state.acc[:, 0], np.array([0.25, -0.25, 0.005]) * arr.dw_min,
+                               atol=1e-12)
+    for f, g in zip(arr.state, twin):
+        assert np.array_equal(f, g)
+
+
 def test_program_commit_writes_only_devices_whose_level_moved():
     arr = xbar(np.zeros((2, 2)), w_max_q=1.0, **{**CLEAN, "commit": "program"})
     arr.outer_update(np.array([1.0, 0.0]), np.array([1.0, 0.3]), 1.5 * arr.dw_min,
