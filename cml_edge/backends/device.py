@@ -256,7 +256,7 @@ class DeviceSpec:
     # configs ------------------------------------------------------------------------
     def make_config(self, **options: Any) -> Any:
         """The config of ``options`` (a ``preset`` name and field values)."""
-        return resolve(self.config_class, dict(self.presets), options, self.name)
+        return resolve(self.config_class, self.presets, options, self.name)
 
     def given(self, backend: str, options: Mapping[str, Any] | None = None,
               settings: Sequence[str] = (), shown: Mapping[str, str] | None = None

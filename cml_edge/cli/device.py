@@ -38,8 +38,8 @@ def add_parsers(sub) -> None:
     add_backend(c, default="crossbar", help="the device: crossbar, the one characterised "
                 "(default); its preset by --preset (default pcm)")
     c.set_defaults(show=show_characterize)
-    c.add_argument("--devices", type=int_at_least(2, ">= 2 (devices per point)"), default=10_000,
-                   help="devices per point (10,000)")
+    c.add_argument("--devices", type=int_at_least(2, ">= 2 (devices per point)"), default=None,
+                   help="devices per point (10,000; 100,000 with --against)")
     c.add_argument("--seed", type=int_at_least(0, ">= 0"), default=0,
                    help="device seed (0)")
     c.add_argument("--targets", type=_number, nargs="+", default=None, metavar="US",
@@ -51,6 +51,10 @@ def add_parsers(sub) -> None:
     c.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     c.add_argument("--out", default=None, help="also write the JSON result to this file")
     c.add_argument("--plot", default=None, metavar="OUT.png", help="draw the four panels")
+    c.add_argument("--against", choices=("aihwkit",), default=None,
+                   help="run the same measurements on IBM aihwkit's tiles (its own "
+                        "environment: bash scripts/aihwkit_env.sh) and print both side by "
+                        "side, with a within-10 %% verdict per row")
     c.set_defaults(run=cmd_characterize)
 
 
@@ -67,8 +71,11 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     options = backend_options(args)
     preset = options.pop("preset", None) or backend_spec("crossbar").device.default_preset(
         "crossbar")
-    result = characterize(preset, devices=args.devices, seed=args.seed, targets=args.targets,
-                          times=args.times, progress=Progress("characterize"), **options)
+    if args.against:
+        return _against(args, preset, options)
+    result = characterize(preset, devices=args.devices or 10_000, seed=args.seed,
+                          targets=args.targets, times=args.times,
+                          progress=Progress("characterize"), **options)
     result["command"] = command_line()
     if args.out:
         atomic_write_text(args.out, dumps(result, indent=1) + "\n")
@@ -77,9 +84,62 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     return result
 
 
+def _against(args: argparse.Namespace, preset: str, options: dict[str, Any]) -> dict[str, Any]:
+    """``--against aihwkit``: :func:`cml_edge.backends.crossbar.aihwkit.compare.compare`."""
+    from cml_edge.backends.crossbar.aihwkit.compare import DEFAULT_DEVICES, compare, plot
+    from cml_edge.io.files import atomic_write_text
+
+    for flag in ("targets", "times"):
+        if getattr(args, flag) is not None:
+            raise InputError(f"--{flag} is not taken with --against (both sides measure the "
+                             "default targets and times)")
+    result = compare(preset, devices=args.devices or DEFAULT_DEVICES, seed=args.seed,
+                     progress=Progress("characterize"), **options)
+    result["command"] = command_line()
+    if args.out:
+        atomic_write_text(args.out, dumps(result, indent=1) + "\n")
+    if args.plot:
+        plot(result, args.plot)
+    return result
+
+
+def show_against(r: dict[str, Any]) -> None:
+    """One row per measurement: the project, aihwkit, the relative difference, the
+    verdict."""
+    from cml_edge.backends.crossbar.characterize import time_text
+    from cml_edge.cli.output import num, table
+
+    def where(row: dict[str, Any]) -> str:
+        parts = [f"{num(row['g_us'])} uS" if "g_us" in row else "",
+                 time_text(row["t_s"]) if "t_s" in row else "", row.get("direction", "")]
+        return " ".join(p for p in parts if p)
+
+    def value(v: float | None) -> str:
+        return "never" if v is None else num(v, 4)
+
+    rows = [[row["check"], row["quantity"], where(row), value(row["project"]),
+             value(row["aihwkit"]),
+             "" if row["rel_diff"] is None else f"{100 * row['rel_diff']:.1f} %",
+             "yes" if row["within"] else "NO"] for row in r["rows"]]
+    m = r["map"]
+    print(f"crossbar preset {r['preset']} against aihwkit {r['versions']['aihwkit']} "
+          f"{r['aihwkit_device']}: {r['devices']:,} devices a point, seed {r['seed']}; "
+          f"w {m['w_min']:g}..{m['w_max']:g} onto {m['g_min_us']:g}..{m['g_max_us']:g} uS")
+    header = ["check", "quantity", "where", "project", "aihwkit", "diff", "within 10 %"]
+    print("\n".join("  " + line for line in table(rows, header)))
+    counts = ", ".join(f"{c} {n['within']} / {n['rows']}" for c, n in r["by_check"].items())
+    print(f"  {r['within']} / {r['rows_total']} rows within {r['tolerance']:.0%} ({counts})")
+    if r.get("aihwkit_preset"):
+        print(f"  aihwkit parameters mapped: {', '.join(r['aihwkit_preset']['mapped'])}; "
+              f"inert on a lone device: {', '.join(r['aihwkit_preset']['inert'])}")
+
+
 def show_characterize(r: dict[str, Any]) -> None:
     """One row per target conductance: programmed, drifted, read noise, one pulse's step
-    (``--json``: every measurement)."""
+    (``--json``: every measurement); ``--against``: :func:`show_against`."""
+    if "against" in r:
+        show_against(r)
+        return
     from cml_edge.backends.crossbar.characterize import pulses_text, time_text
     from cml_edge.cli.output import num, table
 

@@ -511,7 +511,27 @@ _RERAM_SYMMETRIC = dict(
     up_down_dtod=0.01, bounds="soft", prog_noise=1.0, prog_c0=4.782321,
     prog_c1=-0.009107 * 225.0, prog_c2=0.0, prog_gref=225.0, read_noise=0.01)
 
-PRESETS: dict[str, dict[str, Any]] = {
+class _Presets(dict):
+    """The named presets, and ``aihwkit:NAME``: one of IBM aihwkit's preset devices, its
+    parameters read in aihwkit's environment and mapped onto the fields
+    (:mod:`cml_edge.backends.crossbar.aihwkit.presets`; unmodelled parameters refused)."""
+
+    def __contains__(self, name: object) -> bool:
+        return super().__contains__(name) or _is_aihwkit(name)
+
+    def __missing__(self, name: str) -> dict[str, Any]:
+        if not _is_aihwkit(name):
+            raise KeyError(name)
+        from cml_edge.backends.crossbar.aihwkit.presets import preset_fields
+
+        return preset_fields(name)
+
+
+def _is_aihwkit(name: object) -> bool:
+    return isinstance(name, str) and name.startswith("aihwkit:")
+
+
+PRESETS: dict[str, dict[str, Any]] = _Presets({
     "ideal": {"w_headroom": 4.0},
     # the full statistical PCM model (module docstring)
     "pcm": dict(
@@ -534,7 +554,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # the pcm and reram presets of earlier releases, bit for bit
     "pcm-symmetric": _PCM_SYMMETRIC,
     "reram-symmetric": _RERAM_SYMMETRIC,
-}
+})
 
 
 def make_config(preset: str = DEFAULT_PRESET, **overrides: Any) -> DeviceConfig:
