@@ -280,8 +280,8 @@ class DeviceConfig:
     (u - step_center) + exp_b, max(1 - exp_a_up e^(exp_gamma_up z), 0) up and
     max(1 - exp_a_down e^(-exp_gamma_down z), 0) down; ``pow`` (``PowStep``):
     ((hi - G) / (hi - lo))^pow_gamma up, ((G - lo) / (hi - lo))^pow_gamma down.
-    lo / hi are the device's own bounds (``bound_dtod_*``), G0 = lo + step_center
-    (hi - lo) its weight zero."""
+    lo / hi are the device's own bounds (``bound_dtod_*``), G0 its weight zero
+    (``bound_spread``)."""
     step_center: float = option(0.5, lo=0.0, hi=0.999, why=FRACTION)
     """Where the device's weight zero G0 sits in its range (fraction): aihwkit's
     -w_min / (w_max - w_min): 0.5 symmetric, 0.375 for ReRAM (w in -0.75..1.25), 0 for
@@ -335,8 +335,11 @@ class DeviceConfig:
     shrinks; ``symmetric`` (aihwkit ``PulsedRPUDevice::populate``: w_max (1 + w_max_dtod
     z), made positive by ``enforce_consistency``) keeps |1 + d z| >= 1e-3 unclipped above,
     so half the devices reach past g_min / g_max (pulses may take them there; a lower
-    bound stays >= 0 uS). The spread of the bounds with that of the scales (``dw_min_dtod``,
-    ``up_down_dtod``) spreads the soft-bounds slopes s / (hi - G0) as aihwkit's does."""
+    bound stays >= 0 uS), around the nominal weight zero G0 = g_min + step_center
+    (g_max - g_min), which stays every device's zero (``inward``: G0 = lo + step_center
+    (hi - lo) of the device's own bounds). The spread of the bounds with that of the
+    scales (``dw_min_dtod``, ``up_down_dtod``) spreads the soft-bounds slopes
+    s / (hi - G0) as aihwkit's does."""
     write_noise_clip: bool = True
     """Whether a device read through its write-noise offset is clipped to [g_min, g_max]
     (earlier releases) or not (aihwkit: w_apparent = w + write_noise_std dw_min z,

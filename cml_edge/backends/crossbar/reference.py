@@ -216,13 +216,21 @@ def sigmoid(state: State, z: np.ndarray) -> np.ndarray:
 
 
 # one device, one pulse ---------------------------------------------------------------
+def weight_zero(P: Any, lo: float, hi: float) -> float:
+    """G0: lo + step_center (hi - lo) of the device's own bounds, or the nominal
+    g_min + step_center (g_max - g_min) its bounds spread around (``bound_spread``)."""
+    if P.bound_spread == BOUND_SYMMETRIC:
+        return P.g_min + P.step_center * (P.g_max - P.g_min)
+    return lo + P.step_center * (hi - lo)
+
+
 def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     (``step_model``; lo / hi the device's bounds, G0 = lo + step_center (hi - lo))."""
     span = hi - lo
     if not span > 0.0:
         return 0.0
-    g0 = lo + P.step_center * span
+    g0 = weight_zero(P, lo, hi)
     m = P.step_model
     if m == STEP_LINEAR:  # aihwkit LinearStep
         f = 1.0 - P.gamma_up * (g - g0) / (hi - g0) if up else \
@@ -230,7 +238,10 @@ def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
     elif m == STEP_SOFT:  # SoftBounds: zero at each bound
         f = 1.0 - 1.0 * (g - g0) / (hi - g0) if up else 1.0 - 1.0 * (g - g0) / (lo - g0)
     elif m == STEP_EXP:  # ExpStep
-        z = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if P.bound_spread == BOUND_SYMMETRIC:
+            z = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
+        else:
+            z = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
         f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * z) if up else \
             1.0 - P.exp_a_down * math.exp(-P.exp_gamma_down * z)
     elif m == STEP_POW:  # PowStep
@@ -261,7 +272,7 @@ def pulse(P: Any, g: float, up: bool, s: float, z: float, lo: float, hi: float) 
     elif P.c2c == C2C_ADD:
         sd = P.dw_min_std * P.dG * s
     else:  # complex
-        g0 = lo + P.step_center * (hi - lo)
+        g0 = weight_zero(P, lo, hi)
         sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min) + P.c2c_slope * abs(g - g0))
     if P.set_only and P.set_noise != SET_GAUSS:  # log-normal: a SET pulse never lowers G
         d = 0.0

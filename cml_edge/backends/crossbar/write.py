@@ -54,6 +54,7 @@ from numba import njit
 
 from cml_edge.backends.crossbar.codes import (
     ACC_WRITES,
+    BOUND_SYMMETRIC,
     BOUNDS_SOFT,
     C2C_ADD,
     C2C_MULT,
@@ -125,6 +126,16 @@ def _move(g, up, s, z, P):
 
 
 @kernel
+def weight_zero(lo, hi, P):
+    """G0, the conductance of a device's weight zero: lo + step_center (hi - lo) of its own
+    bounds (``bound_spread`` inward), or the nominal g_min + step_center (g_max - g_min)
+    that its bounds spread around (symmetric: aihwkit measures w from 0)."""
+    if P.bound_spread == BOUND_SYMMETRIC:
+        return P.g_min + P.step_center * (P.g_max - P.g_min)
+    return lo + P.step_center * (hi - lo)
+
+
+@kernel
 def step_factor(g, up, lo, hi, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
@@ -133,14 +144,17 @@ def step_factor(g, up, lo, hi, P):
     span = hi - lo
     if not span > 0.0:
         return 0.0
-    g0 = lo + P.step_center * span
+    g0 = weight_zero(lo, hi, P)
     if m in (STEP_LINEAR, STEP_SOFT):
         if up:
             f = 1.0 - (P.gamma_up if m == STEP_LINEAR else 1.0) * (g - g0) / (hi - g0)
         else:
             f = 1.0 - (P.gamma_down if m == STEP_LINEAR else 1.0) * (g - g0) / (lo - g0)
     elif m == STEP_EXP:
-        zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if P.bound_spread == BOUND_SYMMETRIC:
+            zz = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
+        else:
+            zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
         if up:
             f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * zz)
         else:
@@ -169,7 +183,7 @@ def _move_model(g, up, s, z, lo, hi, P):
     elif c == C2C_ADD:
         sd = P.dw_min_std * dG * s
     else:
-        g0 = lo + P.step_center * (hi - lo)
+        g0 = weight_zero(lo, hi, P)
         sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
                              + P.c2c_slope * abs(g - g0))
     if P.set_only and P.set_noise != SET_GAUSS:
