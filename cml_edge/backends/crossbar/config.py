@@ -462,6 +462,13 @@ only hold a device at its bound. The rest is dropped and counted (``pulses_cappe
 also bounds a commit's work whatever ``pulse_gain`` and ``levels`` ask."""
 
 
+REFRESH_READ_SIGMAS = 8.0
+"""An ``open-loop`` refresh reads only the pairs whose larger device lies above the upper
+threshold and smaller above the lower one less this many read-noise stds (both exact
+without read noise): a pair further away would cross with probability below 1e-15 per
+read, and most pairs of a one-sided array (one device idle at g_min) are that far."""
+
+
 def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     """The :class:`CrossbarParams` of an array of scale ``w_max`` on ``config``."""
     grange = config.g_max - config.g_min

@@ -66,6 +66,7 @@ from cml_edge.backends.crossbar.codes import (
     STUCK_LOW,
     UPDATE_PULSED,
 )
+from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.rng import uniform
 
@@ -415,6 +416,10 @@ def refresh_sweep(state: State, rng: Stream) -> None:
     rows, cols = state.Gp.shape
     for i in range(rows):
         for j in range(cols):
+            big, small = max(state.Gp[i, j], state.Gm[i, j]), min(state.Gp[i, j], state.Gm[i, j])
+            if not (big > P.g_min + P.refresh_upper * grange - REFRESH_READ_SIGMAS * sd
+                    and small > P.g_min + P.refresh_lower * grange - REFRESH_READ_SIGMAS * sd):
+                continue  # too far from the thresholds to be read across them
             rp = state.Gp[i, j] + sd * rng.normal()
             rm = state.Gm[i, j] + sd * rng.normal()
             up_, um = (rp - P.g_min) / grange, (rm - P.g_min) / grange

@@ -79,6 +79,7 @@ from cml_edge.backends.crossbar.codes import (
     STEP_SOFT,
 )
 from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
 from cml_edge.backends.crossbar.time import mark_written
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.kernel import kernel
@@ -278,7 +279,9 @@ def _refresh_sweep(state, key, ctr):
     """The open-loop refresh (``refresh_write`` open-loop): every pair read, device by
     device with noise; a pair whose reads cross the thresholds is RESET and the read
     difference written onto the device that read larger by one stochastic train pair.
-    Draws, pair by pair, row by row: the two read normals (G+, G-); for a refreshed pair
+    Draws, pair by pair, row by row, for the pairs near enough to the thresholds to
+    cross them (:data:`~cml_edge.backends.crossbar.config.REFRESH_READ_SIGMAS`): the two
+    read normals (G+, G-); for a refreshed pair
     the row train, the column train, then per pulse the c2c and write-noise normals."""
     Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
                                    state.wn)
@@ -288,10 +291,14 @@ def _refresh_sweep(state, key, ctr):
     rows, cols = Gp.shape
     rng = P.g_max - P.g_min
     sd = P.refresh_read_noise * rng
+    near_up = P.g_min + P.refresh_upper * rng - REFRESH_READ_SIGMAS * sd
+    near_lo = P.g_min + P.refresh_lower * rng - REFRESH_READ_SIGMAS * sd
     noisy = P.dw_min_std != 0.0
     wnoisy = P.write_noise > 0.0
     for i in range(rows):
         for j in range(cols):
+            if not (max(Gp[i, j], Gm[i, j]) > near_up and min(Gp[i, j], Gm[i, j]) > near_lo):
+                continue  # too far from the thresholds to be read across them
             zp, ctr = normal_at(key, ctr)
             zm, ctr = normal_at(key, ctr)
             rp = Gp[i, j] + sd * zp
