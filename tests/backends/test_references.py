@@ -68,6 +68,8 @@ CASES: dict[str, tuple[str, dict]] = {
     "crossbar-converters": ("crossbar", {"preset": "ideal", "w_headroom": 1.0, "levels": 65,
                                          "dac_bits": 5, "adc_bits": 6, "adc_bound": 0.4,
                                          "out_noise": 0.1, "set_only": True}),
+    "crossbar-open-refresh": ("crossbar", {"preset": "pcm", "refresh_upper": 0.02,
+                                           "refresh_lower": 0.01, "write_noise": 3.0}),
     "crossbar-two-sided": ("crossbar", {"preset": "pcm", "mapping": "two-sided",
                                         "compensation_read": "ideal", "commit": "program"}),
 }

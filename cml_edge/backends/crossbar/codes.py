@@ -8,10 +8,14 @@ kernels as the index of its value in the field's choices; the counters are index
 from __future__ import annotations
 
 from cml_edge.backends.crossbar.config import (
+    BOUND_SPREADS,
     BOUNDS,
     C2C_MODELS,
     COMPENSATION_READS,
     MAPPINGS,
+    PAIR_GRIDS,
+    REFRESH_WRITES,
+    SET_NOISES,
     STEP_MODELS,
     UPDATES,
 )
@@ -26,6 +30,10 @@ STEP_BOUNDS, STEP_LINEAR, STEP_SOFT, STEP_EXP, STEP_POW = (
     STEP_MODELS.index(m) for m in ("bounds", "linear", "soft", "exp", "pow"))
 C2C_MULT, C2C_ADD = C2C_MODELS.index("mult"), C2C_MODELS.index("add")
 COMP_PERIPHERY = COMPENSATION_READS.index("periphery")
+BOUND_SYMMETRIC = BOUND_SPREADS.index("symmetric")
+SET_GAUSS = SET_NOISES.index("gauss")
+REFRESH_OPEN = REFRESH_WRITES.index("open-loop")
+PAIR_GRID = PAIR_GRIDS.index("pair")
 
 # counter indices (names in CrossbarArray.counter_names)
 MATVECS, RMATVECS, ANALOG_MACS, DAC_CONVERSIONS, ADC_CONVERSIONS, ADC_SATURATIONS = 0, 1, 2, 3, 4, 5

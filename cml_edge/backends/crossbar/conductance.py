@@ -45,6 +45,15 @@ def snap_to_level(g, g_min, g_max, dG):
 
 
 @kernel
+def pair_targets(k, g_min, g_max, dG):
+    """G+ and G- of a two-sided pair holding k levels of difference (``pair_grid`` pair):
+    c + (k - floor(k / 2)) dG and c - floor(k / 2) dG, c the level nearest the centre."""
+    c = snap_to_level(0.5 * (g_min + g_max), g_min, g_max, dG)
+    h = math.floor(0.5 * k)
+    return c + (k - h) * dG, c - h * dG
+
+
+@kernel
 def prog_sigma(G, scale, c0, c1, c2, g_ref, g_max):
     """sigma_prog(G) of the module docstring (micro-siemens)."""
     if scale == 0.0:

@@ -31,12 +31,17 @@ aihwkit, Sandia CrossSim and the papers they implement):
     - accumulated 1/f read noise q_s = min(0.0088 / g^0.65, 0.2), t_read = 250 ns, scale 1
       (``apply_drift_noise_to_conductance``);
     - SET-only pairs with refresh at 0.75 / 0.25 of the range (``OneSidedUnitCell``,
-      ``PCMPresetUnitCell``: refresh_every 1, default thresholds);
+      ``PCMPresetUnitCell``: refresh_every 1, default thresholds), open loop: every pair
+      read after every update with the refresh read's out_noise 0.06 of the 0..2 range
+      (``refresh_read_noise`` 0.03), the read difference rewritten by one pulse-train
+      pair, no verify (``OneSidedRPUDevice::refreshWeights``);
     - ExpStep pulses (``PCMPresetDevice``, Nandakumar et al. 2020): dw_min 0.01 of a
       0..2 range (dG = 0.125 uS, ``levels`` 201), a = -1, b = 0 (``step_center`` 0),
       A_up = -27.235, A_down = -2.235, gamma 2.5 / 2.5, dw_min_dtod 0.2, up_down_dtod
-      0.05, w_max_dtod 0.1 (``bound_dtod_up``), w_min_dtod 0, dw_min_std 0.6 with
-      dw_min_std_add 0.042 and slope 0.108 (``c2c`` complex, add 0.042 / 2 of the range);
+      0.05, w_max_dtod 0.1 (``bound_dtod_up``, spread both ways: ``bound_spread``
+      symmetric), w_min_dtod 0, dw_min_std 0.6 with dw_min_std_add 0.042 and slope 0.108
+      (``c2c`` complex, add 0.042 / 2 of the range), Gaussian, so a SET pulse may lower G
+      (``set_noise`` gauss; ``rpu_expstep_device.cpp`` ``update_once_complex_noise``);
       steps 3.2 / 0.40 / 0.16 uS at 0.5 / 12.5 / 24 uS; 56 pulses from 0 to 22.5 uS;
     - the controller counts a pulse as the mean step over that sweep (``pulse_gain`` 3.2,
       :data:`PCM_PULSE_GAIN`);
@@ -51,9 +56,11 @@ aihwkit, Sandia CrossSim and the papers they implement):
     mapping (CrossSim's default); pulsed device from aihwkit ``ReRamSBPresetDevice``
     (Gong et al. 2018): soft bounds at w_max 1.25 / w_min -0.75 (``step_center`` 0.375:
     asymmetric), dw_min = 0.002 of the 2-wide range (``levels`` 1001), bound spread
-    w_max_dtod 0.3 / 1.25 = 0.24, w_min_dtod 0.3 / 0.75 = 0.4, dw_min_dtod 0.3,
+    w_max_dtod 0.3 / 1.25 = 0.24, w_min_dtod 0.3 / 0.75 = 0.4 both ways (``bound_spread``
+    symmetric; ``PulsedRPUDevice::populate``), dw_min_dtod 0.3,
     up_down_dtod 0.01, additive cycle-to-cycle noise 3.75 dw_min (``mult_noise`` False),
-    write noise 56 dw_min; read noise 1 % of the range per device and read (the
+    write noise 56 dw_min, unclipped (``write_noise_clip`` off;
+    ``rpu_softbounds_reference_device.cpp``); read noise 1 % of the range per device and read (the
     reference's ReRAM weight noise); 7-bit DAC / 9-bit ADC, bound 12, bound management
     ITERATIVE, no output noise.
 ``pcm-symmetric``, ``reram-symmetric``
@@ -94,6 +101,10 @@ MAPPINGS = ("two-sided", "one-sided")
 STEP_MODELS = ("bounds", "linear", "soft", "exp", "pow")
 C2C_MODELS = ("mult", "add", "complex")
 COMPENSATION_READS = ("ideal", "periphery")
+BOUND_SPREADS = ("inward", "symmetric")
+SET_NOISES = ("lognormal", "gauss")
+REFRESH_WRITES = ("verify", "open-loop")
+PAIR_GRIDS = ("device", "pair")
 DEFAULT_PRESET = "pcm"
 
 # the reasons of the fields' ranges (fields.option): from the physics or the arithmetic
@@ -168,6 +179,21 @@ class DeviceConfig:
     bounds: str = option("hard", choices=BOUNDS)
     """``hard``: a device clips at g_min / g_max; ``soft``: the step shrinks linearly to
     zero at the bound it moves toward (1 at mid-range)."""
+
+    pair_grid: str = option("device", choices=PAIR_GRIDS)
+    """What ``levels`` quantise on a ``two-sided`` pair written exactly (programming, a
+    ``program`` commit, an ``analog`` update; a pulse always moves each device one step):
+    ``device`` (earlier releases): each device on its own grid, G+ = g_c + w g_per_w / 2
+    and G- = g_c - w g_per_w / 2 snapped separately and moved n levels each, so the
+    weight moves in steps of 2 dG / g_per_w, and with an even number of levels (g_c
+    between two levels) it holds only odd multiples of dG / g_per_w: never 0, and a
+    weight below one level reads as +-dG / g_per_w; ``pair``: the pair's difference
+    k dG, k an integer (2 levels - 1 weights, 0 among them whatever the parity), split
+    around the level c nearest g_c: G+ = c + (k - floor(k / 2)) dG, G- = c - floor(k / 2)
+    dG. A commit then moves k by whole levels, n = trunc(acc g_per_w / dG), an analog
+    update by floor(lr post pre g_per_w / dG + u), each retargeting both devices from
+    the difference they hold. The resolution a pair has, not half of it, and a grid
+    whose weights do not depend on the parity of ``levels``."""
 
     # programming noise ---------------------------------------------------------------
     prog_noise: float = option(0.0, lo=0.0, hi=100.0,
@@ -254,8 +280,8 @@ class DeviceConfig:
     (u - step_center) + exp_b, max(1 - exp_a_up e^(exp_gamma_up z), 0) up and
     max(1 - exp_a_down e^(-exp_gamma_down z), 0) down; ``pow`` (``PowStep``):
     ((hi - G) / (hi - lo))^pow_gamma up, ((G - lo) / (hi - lo))^pow_gamma down.
-    lo / hi are the device's own bounds (``bound_dtod_*``), G0 = lo + step_center
-    (hi - lo) its weight zero."""
+    lo / hi are the device's own bounds (``bound_dtod_*``), G0 its weight zero
+    (``bound_spread``)."""
     step_center: float = option(0.5, lo=0.0, hi=0.999, why=FRACTION)
     """Where the device's weight zero G0 sits in its range (fraction): aihwkit's
     -w_min / (w_max - w_min): 0.5 symmetric, 0.375 for ReRAM (w in -0.75..1.25), 0 for
@@ -303,6 +329,42 @@ class DeviceConfig:
     after the programming noise."""
     bound_dtod_down: float = option(0.0, lo=0.0, hi=1.0, why=REL_STD)
     """The same for the lower bound lo = G0 - (G0 - g_min)(1 + d z) (``w_min_dtod``)."""
+    bound_spread: str = option("inward", choices=BOUND_SPREADS)
+    """How ``bound_dtod_*`` spread the bounds: ``inward`` (earlier releases) clips
+    |1 + d z| to [1e-3, 1], so a device's bounds only move toward G0 and its range only
+    shrinks; ``symmetric`` (aihwkit ``PulsedRPUDevice::populate``: w_max (1 + w_max_dtod
+    z), made positive by ``enforce_consistency``) keeps |1 + d z| >= 1e-3 unclipped above,
+    so half the devices reach past g_min / g_max (pulses may take them there; a lower
+    bound stays >= 0 uS), around the nominal weight zero G0 = g_min + step_center
+    (g_max - g_min), which stays every device's zero (``inward``: G0 = lo + step_center
+    (hi - lo) of the device's own bounds). The spread of the bounds with that of the
+    scales (``dw_min_dtod``, ``up_down_dtod``) spreads the soft-bounds slopes
+    s / (hi - G0) as aihwkit's does."""
+    write_noise_clip: bool = True
+    """Whether a device read through its write-noise offset is clipped to [g_min, g_max]
+    (earlier releases) or not (aihwkit: w_apparent = w + write_noise_std dw_min z,
+    unclipped; the hidden state stays within the device's bounds either way)."""
+    set_noise: str = option("lognormal", choices=SET_NOISES)
+    """Cycle-to-cycle noise of a SET pulse of a ``set_only`` device (``step_model`` other
+    than ``bounds``): ``lognormal`` (earlier releases): log-normal with the model's mean
+    and std, so a SET pulse never lowers G; ``gauss`` (aihwkit ``ExpStepRPUDevice``
+    ``update_once_complex_noise``): step + sd z, so where sd exceeds the step (PCM above
+    ~10 uS) a SET pulse lowers G about as often as it raises it."""
+    refresh_write: str = option("verify", choices=REFRESH_WRITES)
+    """How ``refresh`` rewrites a saturated pair: ``verify`` (earlier releases): checked
+    after each pair is pulsed, on its true conductances; both devices RESET and the
+    difference write-verified onto the larger (programming noise); ``open-loop`` (aihwkit
+    ``OneSidedRPUDevice::refreshWeights`` with ``refresh_every`` 1): after every update
+    and every commit, each pair of the array is read (each device G + N(0,
+    (refresh_read_noise (g_max - g_min))^2)), and where the reads cross the thresholds
+    both devices are RESET to g_min and the read difference D is written onto the device
+    that read larger by one stochastic pulse train pair, as aihwkit's refresh update
+    does for a pair alone in its column: BL = min(ceil(D / dG), bl_max) slots, each train
+    firing with probability min(sqrt(D / (dG BL)), 1), one pulse per coincidence, no
+    verify. aihwkit's reset bias (0.01 +- 0.02 of w_max) is not modelled."""
+    refresh_read_noise: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """``open-loop`` refresh: std of the read of each device, fraction of the range
+    (aihwkit ``refresh_forward`` out_noise 0.06 of a 0..2 device: 0.03)."""
     read_noise_pcm: float = option(0.0, lo=0.0, hi=1.0, why="a std per unit of the weighted input")
     """Per-read weight noise of the PCM_READ form (aihwkit ``w_noise`` with
     ``w_noise_type=PCMRead``): each normalised output gets N(0, read_noise_pcm^2
@@ -400,6 +462,13 @@ only hold a device at its bound. The rest is dropped and counted (``pulses_cappe
 also bounds a commit's work whatever ``pulse_gain`` and ``levels`` ask."""
 
 
+REFRESH_READ_SIGMAS = 8.0
+"""An ``open-loop`` refresh reads only the pairs whose larger device lies above the upper
+threshold and smaller above the lower one less this many read-noise stds (both exact
+without read noise): a pair further away would cross with probability below 1e-15 per
+read, and most pairs of a one-sided array (one device idle at g_min) are that far."""
+
+
 def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     """The :class:`CrossbarParams` of an array of scale ``w_max`` on ``config``."""
     grange = config.g_max - config.g_min
@@ -422,7 +491,7 @@ _NONNEG = ("dw_min_dtod", "dw_min_std", "up_down_dtod", "prog_noise", "read_nois
            "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v",
            "c2c_add", "c2c_slope", "write_noise", "bound_dtod_up", "bound_dtod_down",
            "read_noise_pcm", "rn1f", "rn1f_q0", "rn1f_qmax", "gamma_up", "gamma_down",
-           "nu_lo", "nu_hi", "nu_slo", "nu_shi")
+           "nu_lo", "nu_hi", "nu_slo", "nu_shi", "refresh_read_noise")
 NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower",
               "pulse_gain", "step_model", "step_center", "gamma_up", "gamma_down", "exp_a",
               "exp_b", "exp_a_up", "exp_a_down", "exp_gamma_up", "exp_gamma_down",
@@ -430,7 +499,8 @@ NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower"
               "bound_dtod_down", "read_noise_pcm", "rn1f", "rn1f_q0", "rn1f_qexp",
               "rn1f_qmax", "rn1f_t_read", "drift_nu_g", "nu_a", "nu_b", "nu_lo", "nu_hi",
               "nu_sa", "nu_sb", "nu_slo", "nu_shi", "compensation_read", "bound_management",
-              "bm_passes")
+              "bm_passes", "pair_grid", "bound_spread", "write_noise_clip", "set_noise",
+              "refresh_write", "refresh_read_noise")
 """The calibrated-physics fields, added after the first releases. A state saved before
 them has none in its options: it restores with their defaults (every one off), not with
 its preset's present values."""
@@ -532,11 +602,13 @@ def _is_aihwkit(name: object) -> bool:
 
 
 PRESETS: dict[str, dict[str, Any]] = _Presets({
-    "ideal": {"w_headroom": 4.0},
+    "ideal": {"w_headroom": 4.0, "pair_grid": "pair"},
     # the full statistical PCM model (module docstring)
     "pcm": dict(
         _DEVICE, g_min=0.0, g_max=25.0, levels=201, mapping="one-sided", set_only=True,
-        refresh=True, refresh_upper=0.75, refresh_lower=0.25, pulse_gain=PCM_PULSE_GAIN,
+        refresh=True, refresh_upper=0.75, refresh_lower=0.25, refresh_write="open-loop",
+        refresh_read_noise=0.03, pulse_gain=PCM_PULSE_GAIN, set_noise="gauss",
+        bound_spread="symmetric",
         step_model="exp", step_center=0.0, exp_a=-1.0, exp_b=0.0, exp_a_up=-27.235,
         exp_a_down=-2.235, exp_gamma_up=2.5, exp_gamma_down=2.5, dw_min_dtod=0.2,
         up_down_dtod=0.05, bound_dtod_up=0.1, bound_dtod_down=0.0, dw_min_std=0.6,
@@ -548,6 +620,7 @@ PRESETS: dict[str, dict[str, Any]] = _Presets({
     "reram": dict(
         _DEVICE, g_min=50.0, g_max=225.0, levels=1001, mapping="one-sided",
         step_model="soft", step_center=0.375, bound_dtod_up=0.24, bound_dtod_down=0.4,
+        bound_spread="symmetric", write_noise_clip=False,
         dw_min_dtod=0.3, up_down_dtod=0.01, dw_min_std=3.75, c2c="add", write_noise=56.0,
         prog_noise=1.0, prog_c0=4.782321, prog_c1=-0.009107 * 225.0, prog_c2=0.0,
         prog_gref=225.0, read_noise=0.01, bound_management=True),
@@ -582,7 +655,8 @@ the idle ``drift_time`` applies to every device)."""
 
 RANDOM_FIELDS = ("stuck_low", "stuck_high", "dw_min_dtod", "up_down_dtod", "bound_dtod_up",
                  "bound_dtod_down", "drift_nu_std", "prog_noise", "dw_min_std", "write_noise",
-                 "read_noise", "out_noise", "read_noise_pcm", "rn1f", "c2c_add", "c2c_slope")
+                 "read_noise", "out_noise", "read_noise_pcm", "rn1f", "c2c_add", "c2c_slope",
+                 "refresh_read_noise")
 """The fields whose devices draw from the array's stream when nonzero: manufacture
 (stuck devices, device-to-device spreads, drift exponents, programming noise) and
 cycle to cycle (pulse, write and read noise)."""

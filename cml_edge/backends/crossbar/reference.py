@@ -32,6 +32,7 @@ from cml_edge.backends.crossbar.codes import (
     ADC_SATURATIONS,
     ANALOG_MACS,
     BM_REREADS,
+    BOUND_SYMMETRIC,
     BOUNDS_SOFT,
     C2C_ADD,
     C2C_MULT,
@@ -48,11 +49,14 @@ from cml_edge.backends.crossbar.codes import (
     OK,
     ONE_SIDED,
     OUTER_UPDATES,
+    PAIR_GRID,
     PULSES_CAPPED,
+    REFRESH_OPEN,
     REFRESH_PULSES,
     REFRESHES,
     RMATVECS,
     RNG_DRAWS,
+    SET_GAUSS,
     STEP_BOUNDS,
     STEP_EXP,
     STEP_LINEAR,
@@ -62,6 +66,7 @@ from cml_edge.backends.crossbar.codes import (
     STUCK_LOW,
     UPDATE_PULSED,
 )
+from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.rng import uniform
 
@@ -212,13 +217,21 @@ def sigmoid(state: State, z: np.ndarray) -> np.ndarray:
 
 
 # one device, one pulse ---------------------------------------------------------------
+def weight_zero(P: Any, lo: float, hi: float) -> float:
+    """G0: lo + step_center (hi - lo) of the device's own bounds, or the nominal
+    g_min + step_center (g_max - g_min) its bounds spread around (``bound_spread``)."""
+    if P.bound_spread == BOUND_SYMMETRIC:
+        return P.g_min + P.step_center * (P.g_max - P.g_min)
+    return lo + P.step_center * (hi - lo)
+
+
 def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     (``step_model``; lo / hi the device's bounds, G0 = lo + step_center (hi - lo))."""
     span = hi - lo
     if not span > 0.0:
         return 0.0
-    g0 = lo + P.step_center * span
+    g0 = weight_zero(P, lo, hi)
     m = P.step_model
     if m == STEP_LINEAR:  # aihwkit LinearStep
         f = 1.0 - P.gamma_up * (g - g0) / (hi - g0) if up else \
@@ -226,7 +239,10 @@ def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
     elif m == STEP_SOFT:  # SoftBounds: zero at each bound
         f = 1.0 - 1.0 * (g - g0) / (hi - g0) if up else 1.0 - 1.0 * (g - g0) / (lo - g0)
     elif m == STEP_EXP:  # ExpStep
-        z = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if P.bound_spread == BOUND_SYMMETRIC:
+            z = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
+        else:
+            z = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
         f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * z) if up else \
             1.0 - P.exp_a_down * math.exp(-P.exp_gamma_down * z)
     elif m == STEP_POW:  # PowStep
@@ -257,9 +273,9 @@ def pulse(P: Any, g: float, up: bool, s: float, z: float, lo: float, hi: float) 
     elif P.c2c == C2C_ADD:
         sd = P.dw_min_std * P.dG * s
     else:  # complex
-        g0 = lo + P.step_center * (hi - lo)
+        g0 = weight_zero(P, lo, hi)
         sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min) + P.c2c_slope * abs(g - g0))
-    if P.set_only:  # log-normal with the same mean and std: a SET pulse never lowers G
+    if P.set_only and P.set_noise != SET_GAUSS:  # log-normal: a SET pulse never lowers G
         d = 0.0
         if step > 0.0:
             v = math.log1p((sd / step) * (sd / step))
@@ -294,6 +310,14 @@ def level(P: Any, g: float) -> float:
     if P.dG > 0.0:
         g = P.g_min + math.floor((g - P.g_min) / P.dG + 0.5) * P.dG
     return min(max(g, P.g_min), P.g_max)
+
+
+def pair_split(P: Any, k: float) -> tuple[float, float]:
+    """G+ and G- holding k levels of difference around the level c nearest the centre:
+    c + (k - floor(k / 2)) dG, c - floor(k / 2) dG (``pair_grid`` pair)."""
+    c = level(P, 0.5 * (P.g_min + P.g_max))
+    h = math.floor(0.5 * k)
+    return c + (k - h) * P.dG, c - h * P.dG
 
 
 def prog_sigma(P: Any, G: float) -> float:
@@ -340,13 +364,15 @@ def pulse_pair(state: State, i: int, j: int, n: int, positive: bool, rng: Stream
             lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
             if P.write_noise > 0.0:  # the pulse moves the hidden state, read with an offset
                 h = pulse(P, G[i, j] - state.wn[d, i, j], up, s, z, lo, hi)
-                G[i, j] = min(max(h + P.write_noise * P.dG * w, P.g_min), P.g_max)
+                G[i, j] = h + P.write_noise * P.dG * w
+                if P.write_noise_clip:
+                    G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
                 state.wn[d, i, j] = G[i, j] - h
             else:
                 G[i, j] = pulse(P, G[i, j], up, s, z, lo, hi)
     for d in devices:
         mark_written(state, d, i, j, device(state, d)[i, j])
-    if P.refresh:
+    if P.refresh and P.refresh_write != REFRESH_OPEN:
         refresh_pair(state, i, j, rng)
 
 
@@ -376,6 +402,60 @@ def refresh_pair(state: State, i: int, j: int, rng: Stream) -> None:
         mark_written(state, d, i, j, target)
     state.counters[REFRESHES] += 1
     state.counters[REFRESH_PULSES] += pulses
+
+
+def refresh_sweep(state: State, rng: Stream) -> None:
+    """The open-loop refresh (``refresh_write`` open-loop), after an update or a commit:
+    each pair read device by device with noise, row by row; where the reads cross the
+    thresholds both devices are RESET to g_min and the read difference D written onto the
+    device that read larger by one pair of pulse trains (BL = min(ceil(D / dG), bl_max)
+    slots, each fired with probability sqrt(D / (dG BL))), one pulse per coincidence."""
+    P = state.params
+    grange = P.g_max - P.g_min
+    sd = P.refresh_read_noise * grange
+    rows, cols = state.Gp.shape
+    for i in range(rows):
+        for j in range(cols):
+            big, small = max(state.Gp[i, j], state.Gm[i, j]), min(state.Gp[i, j], state.Gm[i, j])
+            if not (big > P.g_min + P.refresh_upper * grange - REFRESH_READ_SIGMAS * sd
+                    and small > P.g_min + P.refresh_lower * grange - REFRESH_READ_SIGMAS * sd):
+                continue  # too far from the thresholds to be read across them
+            rp = state.Gp[i, j] + sd * rng.normal()
+            rm = state.Gm[i, j] + sd * rng.normal()
+            up_, um = (rp - P.g_min) / grange, (rm - P.g_min) / grange
+            if not (max(up_, um) > P.refresh_upper and min(up_, um) > P.refresh_lower):
+                continue
+            big = 0 if rp > rm else 1
+            diff = abs(rp - rm)
+            for d in range(2):
+                if state.stuck[d, i, j] == OK:
+                    device(state, d)[i, j] = P.g_min
+                    state.wn[d, i, j] = 0.0
+            bl = max(1, min(int(math.ceil(diff / P.dG)), P.bl_max))
+            p = min(math.sqrt(diff / (P.dG * bl)), 1.0)
+            trains = [[rng.uniform() < p for _ in range(bl)] if p > 0.0 else [False] * bl
+                      for _ in range(2)]
+            n = sum(a and b for a, b in zip(*trains))
+            for _ in range(n):
+                z = rng.normal() if P.dw_min_std != 0.0 else 0.0
+                w = rng.normal() if P.write_noise > 0.0 else 0.0
+                if state.stuck[big, i, j] != OK:
+                    continue
+                G = device(state, big)
+                s = state.step[2 * big, i, j]
+                lo, hi = state.bnd[2 * big, i, j], state.bnd[2 * big + 1, i, j]
+                if P.write_noise > 0.0:
+                    h = pulse(P, G[i, j] - state.wn[big, i, j], True, s, z, lo, hi)
+                    G[i, j] = h + P.write_noise * P.dG * w
+                    if P.write_noise_clip:
+                        G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
+                    state.wn[big, i, j] = G[i, j] - h
+                else:
+                    G[i, j] = pulse(P, G[i, j], True, s, z, lo, hi)
+            for d in range(2):
+                mark_written(state, d, i, j, device(state, d)[i, j])
+            state.counters[REFRESHES] += 1
+            state.counters[REFRESH_PULSES] += 2 + n
 
 
 def set_pulses(P: Any, target: float) -> int:
@@ -445,6 +525,8 @@ def pulsed_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
                 c[DEVICE_PULSES] += per_pair * n
                 c[DEVICES_WRITTEN] += per_pair
                 pulse_pair(state, i, j, n, (post[i] > 0.0) == (pre[j] > 0.0), rng)
+    if P.refresh and P.refresh_write == REFRESH_OPEN:
+        refresh_sweep(state, rng)
     c[LINE_PULSES] += sum(sum(col) for col in columns)
     c[RNG_DRAWS] += rng.close()
 
@@ -455,12 +537,27 @@ def analog_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
     change on G+ (raising w) or G- (lowering it)."""
     P = state.params
     half = P.g_per_w if P.set_only else 0.5 * P.g_per_w
+    pair = (P.pair_grid == PAIR_GRID and P.dG > 0.0 and not P.set_only
+            and P.mapping != ONE_SIDED)
     rng = Stream(state)
     for i in range(len(post)):
         for j in range(len(pre)):
             if post[i] == 0.0 or pre[j] == 0.0:
                 continue
             d = lr * post[i] * pre[j] * half
+            if pair:  # whole levels of the pair's difference, stochastically rounded
+                n = math.floor(2.0 * d / P.dG + rng.uniform())
+                if n == 0:
+                    continue
+                targets = pair_split(P, math.floor((state.Gp[i, j] - state.Gm[i, j]) / P.dG
+                                                   + 0.5) + n)
+                for k in range(2):
+                    if state.stuck[k, i, j] == OK:
+                        device(state, k)[i, j] = min(max(targets[k], P.g_min), P.g_max)
+                for k in range(2):
+                    mark_written(state, k, i, j, device(state, k)[i, j])
+                state.counters[DEVICES_WRITTEN] += 2
+                continue
             if P.dG > 0.0:
                 d = math.floor(d / P.dG + rng.uniform()) * P.dG
                 if d == 0.0:
@@ -484,6 +581,10 @@ def commit(state: State) -> None:
     c[COMMITS] += 1
     rng = Stream(state)
     per_pair = 1 if P.set_only else 2
+    # a write-verified two-sided pair on the pair's grid: one level of difference a step
+    pair = (P.commit != COMMIT_PULSE and P.pair_grid == PAIR_GRID and P.dG > 0.0
+            and P.mapping != ONE_SIDED)
+    unit = P.dG / P.g_per_w if pair else P.dw_min
     rows, cols = state.acc.shape
     for i in range(rows):
         for j in range(cols):
@@ -492,10 +593,10 @@ def commit(state: State) -> None:
                 continue
             n = 0
             if P.dG > 0.0:
-                n = int(a / P.dw_min)  # toward zero
+                n = int(a / unit)  # toward zero
                 if n == 0:
                     continue
-                state.acc[i, j] = a - n * P.dw_min
+                state.acc[i, j] = a - n * unit
                 delta = n * P.dG
             else:
                 state.acc[i, j] = 0.0
@@ -517,6 +618,9 @@ def commit(state: State) -> None:
                 w = min(max(w, -P.w_max), P.w_max)
                 targets = [P.g_min + max(w, 0.0) * P.g_per_w,
                            P.g_min + max(-w, 0.0) * P.g_per_w]
+            elif pair:  # both devices retargeted from the difference they hold
+                targets = list(pair_split(P, math.floor((state.Gp[i, j] - state.Gm[i, j])
+                                                        / P.dG + 0.5) + n))
             for d in range(2):
                 if state.stuck[d, i, j] == OK:
                     device(state, d)[i, j] = program_device(
@@ -524,6 +628,8 @@ def commit(state: State) -> None:
                     state.wn[d, i, j] = 0.0
             for d in range(2):
                 mark_written(state, d, i, j, targets[d])
+    if P.commit == COMMIT_PULSE and P.refresh and P.refresh_write == REFRESH_OPEN:
+        refresh_sweep(state, rng)
     c[RNG_DRAWS] += rng.close()
 
 
@@ -549,10 +655,13 @@ def program(state: State, W: np.ndarray) -> int:
         state.nu[d, i, j] = max(P.drift_nu + P.drift_nu_std * z, 0.0)
         state.nu_z[d, i, j] = z
     g_c = 0.5 * (P.g_min + P.g_max)
+    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and P.mapping != ONE_SIDED
     for i, j, d in cells:  # the weights, with programming noise
         w = min(max(W[i, j], -P.w_max), P.w_max)
         if P.mapping == ONE_SIDED:
             t = P.g_min + max(w if d == 0 else -w, 0.0) * P.g_per_w
+        elif pair:  # the pair's difference k dG, split around the centre level
+            t = pair_split(P, math.floor(w * P.g_per_w / P.dG + 0.5))[d]
         else:
             t = g_c + w * (0.5 * P.g_per_w) if d == 0 else g_c - w * (0.5 * P.g_per_w)
         G = level(P, t)
@@ -567,9 +676,11 @@ def program(state: State, W: np.ndarray) -> int:
     if P.bound_dtod_up > 0.0 or P.bound_dtod_down > 0.0:  # each device's own bounds
         g0 = P.g_min + P.step_center * (P.g_max - P.g_min)
         for i, j, d in cells:
-            ru = min(max(abs(1.0 + P.bound_dtod_up * rng.normal()), 1e-3), 1.0)
-            rl = min(max(abs(1.0 + P.bound_dtod_down * rng.normal()), 1e-3), 1.0)
-            lo, hi = g0 - (g0 - P.g_min) * rl, g0 + (P.g_max - g0) * ru
+            ru = max(abs(1.0 + P.bound_dtod_up * rng.normal()), 1e-3)
+            rl = max(abs(1.0 + P.bound_dtod_down * rng.normal()), 1e-3)
+            if P.bound_spread != BOUND_SYMMETRIC:  # inward: a bound only moves toward G0
+                ru, rl = min(ru, 1.0), min(rl, 1.0)
+            lo, hi = max(g0 - (g0 - P.g_min) * rl, 0.0), g0 + (P.g_max - g0) * ru
             state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j] = lo, hi
             if state.stuck[d, i, j] == OK:
                 device(state, d)[i, j] = min(max(device(state, d)[i, j], lo), hi)

@@ -19,15 +19,17 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.crossbar.codes import (
+    BOUND_SYMMETRIC,
     CALIBRATION_READS,
     COMP_PERIPHERY,
     OK,
     ONE_SIDED,
+    PAIR_GRID,
     RNG_DRAWS,
     STUCK_HIGH,
     STUCK_LOW,
 )
-from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
 from cml_edge.backends.crossbar.read import read
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.kernel import kernel
@@ -72,7 +74,7 @@ def xbar_program(state, W):
     kept as ``nu_z`` for ``drift_nu_g``); one normal per device for the programming
     noise. Devices are visited row by row, G+ before G-. Then, only when a bound spread
     is configured (``bound_dtod_up`` or ``_down`` > 0), two normals per device for its
-    upper and lower bound, which clip it.
+    upper and lower bound (``bound_spread``; a lower bound >= 0 uS), which clip it.
     """
     Gp = state.Gp
     Gm = state.Gm
@@ -110,12 +112,19 @@ def xbar_program(state, W):
     half = 0.5 * P.g_per_w
     w_max = P.w_max
     one_sided = P.mapping == ONE_SIDED
+    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and not one_sided
     for i in range(rows):
         for j in range(cols):
             w = min(max(W[i, j], -w_max), w_max)
+            tp = tm = 0.0
+            if pair:  # the pair's difference on the grid, split around the centre
+                tp, tm = pair_targets(math.floor(w * P.g_per_w / P.dG + 0.5), g_min, g_max,
+                                      P.dG)
             for d in range(2):
                 if one_sided:
                     t = g_min + max(w if d == 0 else -w, 0.0) * P.g_per_w
+                elif pair:
+                    t = tp if d == 0 else tm
                 else:
                     t = g_c + w * half if d == 0 else g_c - w * half
                 G = snap_to_level(t, g_min, g_max, P.dG)
@@ -144,9 +153,12 @@ def xbar_program(state, W):
                 for d in range(2):
                     zu, ctr = normal_at(key, ctr)
                     zl, ctr = normal_at(key, ctr)
-                    ru = min(max(abs(1.0 + P.bound_dtod_up * zu), 1e-3), 1.0)
-                    rl = min(max(abs(1.0 + P.bound_dtod_down * zl), 1e-3), 1.0)
-                    b_lo = g0 - (g0 - g_min) * rl
+                    ru = max(abs(1.0 + P.bound_dtod_up * zu), 1e-3)
+                    rl = max(abs(1.0 + P.bound_dtod_down * zl), 1e-3)
+                    if P.bound_spread != BOUND_SYMMETRIC:  # only inward
+                        ru = min(ru, 1.0)
+                        rl = min(rl, 1.0)
+                    b_lo = max(g0 - (g0 - g_min) * rl, 0.0)
                     b_hi = g0 + (g_max - g0) * ru
                     state.bnd[2 * d, i, j] = b_lo
                     state.bnd[2 * d + 1, i, j] = b_hi

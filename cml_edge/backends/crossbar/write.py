@@ -54,6 +54,7 @@ from numba import njit
 
 from cml_edge.backends.crossbar.codes import (
     ACC_WRITES,
+    BOUND_SYMMETRIC,
     BOUNDS_SOFT,
     C2C_ADD,
     C2C_MULT,
@@ -64,17 +65,21 @@ from cml_edge.backends.crossbar.codes import (
     LINE_PULSES,
     OK,
     ONE_SIDED,
+    PAIR_GRID,
     PULSES_CAPPED,
+    REFRESH_OPEN,
     REFRESH_PULSES,
     REFRESHES,
     RNG_DRAWS,
+    SET_GAUSS,
     STEP_BOUNDS,
     STEP_EXP,
     STEP_LINEAR,
     STEP_POW,
     STEP_SOFT,
 )
-from cml_edge.backends.crossbar.conductance import prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
 from cml_edge.backends.crossbar.time import mark_written
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.kernel import kernel
@@ -122,6 +127,16 @@ def _move(g, up, s, z, P):
 
 
 @kernel
+def weight_zero(lo, hi, P):
+    """G0, the conductance of a device's weight zero: lo + step_center (hi - lo) of its own
+    bounds (``bound_spread`` inward), or the nominal g_min + step_center (g_max - g_min)
+    that its bounds spread around (symmetric: aihwkit measures w from 0)."""
+    if P.bound_spread == BOUND_SYMMETRIC:
+        return P.g_min + P.step_center * (P.g_max - P.g_min)
+    return lo + P.step_center * (hi - lo)
+
+
+@kernel
 def step_factor(g, up, lo, hi, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
@@ -130,14 +145,17 @@ def step_factor(g, up, lo, hi, P):
     span = hi - lo
     if not span > 0.0:
         return 0.0
-    g0 = lo + P.step_center * span
+    g0 = weight_zero(lo, hi, P)
     if m in (STEP_LINEAR, STEP_SOFT):
         if up:
             f = 1.0 - (P.gamma_up if m == STEP_LINEAR else 1.0) * (g - g0) / (hi - g0)
         else:
             f = 1.0 - (P.gamma_down if m == STEP_LINEAR else 1.0) * (g - g0) / (lo - g0)
     elif m == STEP_EXP:
-        zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
+        if P.bound_spread == BOUND_SYMMETRIC:
+            zz = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
+        else:
+            zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
         if up:
             f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * zz)
         else:
@@ -166,10 +184,10 @@ def _move_model(g, up, s, z, lo, hi, P):
     elif c == C2C_ADD:
         sd = P.dw_min_std * dG * s
     else:
-        g0 = lo + P.step_center * (hi - lo)
+        g0 = weight_zero(lo, hi, P)
         sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min)
                              + P.c2c_slope * abs(g - g0))
-    if P.set_only:
+    if P.set_only and P.set_noise != SET_GAUSS:
         # a SET pulse never lowers G: the step is log-normal with the model's mean and std
         d = 0.0
         if step > 0.0:
@@ -194,7 +212,9 @@ def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
     else:
         h = _move_model(h, up, s, z, bnd[2 * d, i, j], bnd[2 * d + 1, i, j], P)
     if P.write_noise > 0.0:
-        G = min(max(h + P.write_noise * P.dG * w, P.g_min), P.g_max)
+        G = h + P.write_noise * P.dG * w
+        if P.write_noise_clip:
+            G = min(max(G, P.g_min), P.g_max)
         wn[d, i, j] = G - h
         return G
     return h
@@ -255,6 +275,73 @@ def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, 
 
 
 @kernel
+def _refresh_sweep(state, key, ctr):
+    """The open-loop refresh (``refresh_write`` open-loop): every pair read, device by
+    device with noise; a pair whose reads cross the thresholds is RESET and the read
+    difference written onto the device that read larger by one stochastic train pair.
+    Draws, pair by pair, row by row, for the pairs near enough to the thresholds to
+    cross them (:data:`~cml_edge.backends.crossbar.config.REFRESH_READ_SIGMAS`): the two
+    read normals (G+, G-); for a refreshed pair
+    the row train, the column train, then per pulse the c2c and write-noise normals."""
+    Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
+                                   state.wn)
+    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
+    c = state.counters
+    P = state.params
+    rows, cols = Gp.shape
+    rng = P.g_max - P.g_min
+    sd = P.refresh_read_noise * rng
+    near_up = P.g_min + P.refresh_upper * rng - REFRESH_READ_SIGMAS * sd
+    near_lo = P.g_min + P.refresh_lower * rng - REFRESH_READ_SIGMAS * sd
+    noisy = P.dw_min_std != 0.0
+    wnoisy = P.write_noise > 0.0
+    for i in range(rows):
+        for j in range(cols):
+            if not (max(Gp[i, j], Gm[i, j]) > near_up and min(Gp[i, j], Gm[i, j]) > near_lo):
+                continue  # too far from the thresholds to be read across them
+            zp, ctr = normal_at(key, ctr)
+            zm, ctr = normal_at(key, ctr)
+            rp = Gp[i, j] + sd * zp
+            rm = Gm[i, j] + sd * zm
+            up_ = (rp - P.g_min) / rng
+            um = (rm - P.g_min) / rng
+            if not (max(up_, um) > P.refresh_upper and min(up_, um) > P.refresh_lower):
+                continue
+            big = 0 if rp > rm else 1
+            diff = abs(rp - rm)
+            for d in range(2):
+                if stuck[d, i, j] == OK:
+                    if d == 0:
+                        Gp[i, j] = P.g_min
+                    else:
+                        Gm[i, j] = P.g_min
+                    wn[d, i, j] = 0.0
+            bl = max(1, min(int(math.ceil(diff / P.dG)), P.bl_max))
+            p = math.sqrt(diff / (P.dG * bl))
+            a, ctr = _pulse_train(p, bl, key, ctr)
+            b, ctr = _pulse_train(p, bl, key, ctr)
+            n = popcount(a & b)
+            for _ in range(n):
+                z = 0.0
+                w = 0.0
+                if noisy:
+                    z, ctr = normal_at(key, ctr)
+                if wnoisy:
+                    w, ctr = normal_at(key, ctr)
+                if stuck[big, i, j] != OK:
+                    continue
+                if big == 0:
+                    Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, True, z, w)
+                else:
+                    Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, True, z, w)
+            mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+            mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+            c[REFRESHES] += 1
+            c[REFRESH_PULSES] += 2 + n
+    return ctr
+
+
+@kernel
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
@@ -301,7 +388,7 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
                     Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, up, z, w)
         for d in range(first, last + 1):
             mark_written(age, rn, nu, nu_z, P, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
-    if P.refresh != 0:
+    if P.refresh != 0 and P.refresh_write != REFRESH_OPEN:
         ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
                             ctr)
     return ctr
@@ -406,6 +493,8 @@ def pulsed_update(state, post, pre, lr):
                 pairs += 1
                 ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, i, j,
                                   n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
+    if P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
+        ctr = _refresh_sweep(state, key, ctr)
     state.rng[1] = ctr
     per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
     c[RNG_DRAWS] += np.int64(ctr - start)
@@ -428,6 +517,7 @@ def analog_update(state, post, pre, lr):
     dG = P.dG
     set_only = P.set_only != 0
     half = P.g_per_w if set_only else 0.5 * P.g_per_w
+    pair = P.pair_grid == PAIR_GRID and dG > 0.0 and not set_only and P.mapping != ONE_SIDED
     stuck = state.stuck
     age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
     key = state.rng[0]
@@ -442,6 +532,21 @@ def analog_update(state, post, pre, lr):
             if pre[j] == 0.0:
                 continue
             d = p * pre[j] * half
+            if pair:  # whole levels of the pair's difference, stochastically rounded
+                n = math.floor(2.0 * d / dG + uniform(key, ctr))
+                ctr += _ONE
+                if n == 0:
+                    continue
+                tp, tm = pair_targets(math.floor((Gp[i, j] - Gm[i, j]) / dG + 0.5) + n,
+                                      g_min, g_max, dG)
+                if stuck[0, i, j] == OK:
+                    Gp[i, j] = min(max(tp, g_min), g_max)
+                if stuck[1, i, j] == OK:
+                    Gm[i, j] = min(max(tm, g_min), g_max)
+                mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+                mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+                written += 2
+                continue
             if dG > 0.0:
                 d = math.floor(d / dG + uniform(key, ctr)) * dG
                 ctr += _ONE
@@ -488,6 +593,9 @@ def commit_accumulated(state):
     half = 0.5 * P.g_per_w
     pulse = P.commit == COMMIT_PULSE
     one_sided = P.mapping == ONE_SIDED
+    # a write-verified two-sided pair on the pair's grid: one level of difference a step
+    pair = not pulse and P.pair_grid == PAIR_GRID and dG > 0.0 and not one_sided
+    unit = dG / P.g_per_w if pair else dw_min
     per_pair = 1 if P.set_only else 2
     key = state.rng[0]
     ctr = state.rng[1]
@@ -501,10 +609,10 @@ def commit_accumulated(state):
                 continue
             n = 0
             if dG > 0.0:
-                n = int(a / dw_min)  # whole steps, toward zero; the rest stays
+                n = int(a / unit)  # whole steps, toward zero; the rest stays
                 if n == 0:
                     continue
-                acc[i, j] = a - n * dw_min
+                acc[i, j] = a - n * unit
                 delta = n * dG
             else:
                 acc[i, j] = 0.0
@@ -526,6 +634,9 @@ def commit_accumulated(state):
                 w = min(max(w, -P.w_max), P.w_max)
                 tp = P.g_min + max(w, 0.0) * P.g_per_w
                 tm = P.g_min + max(-w, 0.0) * P.g_per_w
+            elif pair:  # both devices retargeted from the difference they hold
+                tp, tm = pair_targets(math.floor((Gp[i, j] - Gm[i, j]) / dG + 0.5) + n,
+                                      P.g_min, P.g_max, dG)
             if stuck[0, i, j] == OK:
                 Gp[i, j], ctr = _program_device(tp, 0.0, P, key, ctr, bnd[0, i, j],
                                                 bnd[1, i, j])
@@ -536,6 +647,8 @@ def commit_accumulated(state):
                 wn[1, i, j] = 0.0
             mark_written(age, rn, nu, nu_z, P, 0, i, j, tp)
             mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
+    if pulse and P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
+        ctr = _refresh_sweep(state, key, ctr)
     state.rng[1] = ctr
     c = counters
     c[RNG_DRAWS] += np.int64(ctr - start)

@@ -263,13 +263,16 @@ def test_a_commit_sends_a_pair_at_most_four_sweeps_of_pulses():
         assert np.array_equal(f, g)
 
 
-def test_program_commit_writes_only_devices_whose_level_moved():
-    arr = xbar(np.zeros((2, 2)), w_max_q=1.0, **{**CLEAN, "commit": "program"})
+@pytest.mark.parametrize("grid,moved", [("device", 1.0), ("pair", 1.5)])
+def test_program_commit_writes_only_devices_whose_level_moved(grid, moved):
+    """1.5 dw_min asked: one step of both devices (``device`` grid), or three levels of
+    the pair's difference, dw_min / 2 each (``pair``)."""
+    arr = xbar(np.zeros((2, 2)), w_max_q=1.0, pair_grid=grid, **{**CLEAN, "commit": "program"})
     arr.outer_update(np.array([1.0, 0.0]), np.array([1.0, 0.3]), 1.5 * arr.dw_min,
                      defer=True)
     arr.commit()
     assert arr.counters["devices_written"] == 2  # only (0, 0); (0, 1) is below one level
-    np.testing.assert_allclose(arr.to_float(), [[arr.dw_min, 0], [0, 0]], atol=1e-12)
+    np.testing.assert_allclose(arr.to_float(), [[moved * arr.dw_min, 0], [0, 0]], atol=1e-12)
 
 
 finite = st.floats(-2, 2, allow_nan=False, width=64)

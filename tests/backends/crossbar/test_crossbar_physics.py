@@ -230,7 +230,7 @@ def test_pcm_set_steps_are_exponential_in_the_state(g, expected):
     complex noise, 0.6 (step + 0.021 x 25 + 0.108 G), on the pcm preset's mean device."""
     n = 20_000
     arr = column(g, n, preset="pcm", prog_noise=0.0, refresh=False, dw_min_dtod=0.0,
-                 up_down_dtod=0.0, bound_dtod_up=0.0)
+                 up_down_dtod=0.0, bound_dtod_up=0.0, set_noise="lognormal")
     before = arr.state.Gp.copy()
     one_pulse(arr)
     step = (arr.state.Gp - before).ravel()
@@ -281,7 +281,7 @@ def test_step_models_match_their_formulas(model, c2c):
 
 def test_asymmetric_soft_bounds_stop_at_each_devices_own_bounds():
     arr = make_array("crossbar", np.zeros((300, 10)), seed=4, index=0, preset="reram",
-                     w_max_q=1.0)
+                     w_max_q=1.0, bound_spread="inward")
     b = arr.state.bnd
     g0 = 50 + 0.375 * 175
     assert (b[0::2] <= g0).all() and (b[1::2] >= g0).all()
@@ -310,8 +310,10 @@ def test_write_noise_is_redrawn_at_each_pulse_on_the_hidden_state():
 @given(st.lists(st.tuples(st.booleans(), st.integers(1, 5)), min_size=1, max_size=12),
        st.sampled_from(["exp", "soft", "bounds", "pow"]), st.integers(0, 3))
 def test_set_only_devices_never_decrease(pulses, model, seed):
-    """Whatever the pulse sequence: a SET-only device only potentiates (refresh off)."""
+    """Whatever the pulse sequence: a SET-only device with log-normal steps only
+    potentiates (refresh off)."""
     fields = dict(step_model=model, set_only=True, refresh=False, step_center=0.25,
+                  set_noise="lognormal",
                   c2c="complex" if model == "exp" else "add", dw_min_std=2.0)
     arr = make_array("crossbar", np.array([[0.3, -0.2], [0.0, 0.9]]), seed=seed, index=0,
                      preset="pcm", w_max_q=1.0, **fields)
@@ -354,6 +356,95 @@ def test_refresh_resets_a_saturated_pair_and_keeps_its_weight():
     assert energy_pj(ANALOG, {"refresh_pulses": 10})[0] == pytest.approx(640.0)
 
 
+def test_symmetric_bound_spread_reaches_past_the_nominal_range():
+    """aihwkit PulsedRPUDevice::populate: w_max (1 + w_max_dtod z), both ways."""
+    arr = make_array("crossbar", np.zeros((300, 10)), seed=4, index=0, preset="reram",
+                     w_max_q=1.0)
+    b = arr.state.bnd
+    g0 = 50 + 0.375 * 175
+    hi_rel = (b[1::2] - g0) / (225 - g0)
+    within(hi_rel.mean(), 1.0, 0.24 / math.sqrt(hi_rel.size))
+    within(hi_rel.std(ddof=1), 0.24, std_se(0.24, hi_rel.size))
+    assert 0.45 < (b[1::2] > 225).mean() < 0.55 and 0.45 < (b[0::2] < 50).mean() < 0.55
+    assert (b[0::2] >= 0).all()
+    Gp = arr.state.Gp
+    assert ((Gp >= b[0]) & (Gp <= b[1])).all()
+
+
+def test_symmetric_soft_bounds_step_from_the_nominal_weight_zero():
+    """aihwkit SoftBoundsReference (add noise): w -= s (1 - w / w_min + 3.75 z), w
+    measured from the nominal zero, clipped at the device's own lower bound."""
+    n = 20_000
+    arr = column(190.0, n, preset="reram", prog_noise=0.0, write_noise=0.0)
+    st = arr.state
+    g0 = 50 + 0.375 * 175
+    G, lo, s = st.Gp[:, 0].copy(), st.bnd[0, :, 0], st.step[1, :, 0]
+    one_pulse(arr, up=False)
+    step = G - st.Gp[:, 0]
+    mean = 0.175 * s * (1 + (G - g0) / (g0 - lo))
+    assert np.all(step <= G - lo + 1e-9)
+    ok = (G - lo > mean + 8 * 3.75 * 0.175 * s) & (s > 0)  # far from the bound: unclipped
+    resid = (step[ok] - mean[ok]) / (3.75 * 0.175 * s[ok])
+    within(resid.mean(), 0.0, 1 / math.sqrt(ok.sum()))
+    within(resid.std(ddof=1), 1.0, std_se(1.0, ok.sum()))
+
+
+def test_gauss_set_noise_lowers_g_as_often_as_the_step_allows():
+    """aihwkit ExpStep, complex noise: w += dw + 0.6 (|dw| + add + slope |w|) z."""
+    n = 40_000
+    fields = dict(QUIET, set_only=True, refresh=False, step_model="exp", step_center=0.0,
+                  exp_a=-1.0, exp_b=0.0, exp_a_up=-27.235, exp_gamma_up=2.5, c2c="complex",
+                  dw_min_std=0.6, c2c_add=0.021, c2c_slope=0.108, set_noise="gauss")
+    arr = column(12.5, n, **fields)
+    before = arr.state.Gp[:, 0].copy()
+    one_pulse(arr)
+    step = arr.state.Gp[:, 0] - before
+    mean = exp_step(12.5)
+    sd = 0.6 * (mean + 0.525 + 0.108 * 12.5)
+    within(step.mean(), mean, sd / math.sqrt(n))
+    within(step.std(ddof=1), sd, std_se(sd, n))
+    p = norm.cdf(-mean / sd)
+    within((step < 0).mean(), p, math.sqrt(p * (1 - p) / n))
+
+
+def test_unclipped_write_noise_reads_past_the_range():
+    n = 20_000
+    arr = column(0.0, n, **dict(QUIET, write_noise=4.0, write_noise_clip=False))
+    one_pulse(arr)
+    G = arr.state.Gp[:, 0]
+    within((G < 0).mean(), norm.cdf(-0.125 / 0.5), 0.005)
+    np.testing.assert_allclose(G - arr.state.wn[0, :, 0], 0.125, atol=1e-12)
+
+
+def test_open_loop_refresh_rewrites_the_read_difference_by_one_train_pair():
+    """aihwkit OneSidedRPUDevice::refreshWeights, refresh_every 1: every pair read after
+    every update; a saturated pair RESET and D written open loop: BL = min(ceil(D / dG),
+    31) slots, each train firing with probability min(sqrt(D / (dG BL)), 1)."""
+    exp = dict(step_model="exp", step_center=0.0, exp_a=-1.0, exp_b=0.0,
+               exp_a_up=-27.235, exp_gamma_up=2.5)
+    arr = column(20.0, 3, **dict(QUIET, set_only=True, refresh=True, refresh_write="open-loop",
+                                 **exp))
+    arr.state.Gm[:] = 8.0
+    arr.state.Gp[2, 0] = 10.0  # not saturated
+    arr.state.acc[:] = 0.0
+    arr.state.acc[0, 0] = arr.state.params.dw_min * (1 + 1e-9)  # one pulse, pair 0 only
+    arr.commit()
+    g = 0.0
+    for _ in range(31):  # D > 31 dG: every slot fires in both trains
+        g = min(g + exp_step(g), 25.0)
+    np.testing.assert_allclose(arr.state.Gp[:2, 0], g)  # pair 1 was not pulsed: read too
+    np.testing.assert_allclose(arr.state.Gm[:2, 0], 0.0)
+    assert (arr.state.Gp[2, 0], arr.state.Gm[2, 0]) == (10.0, 8.0)
+    assert arr.counters["refreshes"] == 2 and arr.counters["refresh_pulses"] == 2 * 33
+    noisy = column(20.0, 20_000, **dict(QUIET, set_only=True, refresh=True,
+                                        refresh_write="open-loop", refresh_upper=0.78,
+                                        refresh_read_noise=0.03, **exp))
+    noisy.state.Gm[:] = 8.0
+    noisy.commit()  # nothing pulsed: the reads alone decide (20 uS is 0.8 of the range)
+    p = norm.cdf((20.0 - 0.78 * 25) / 0.75) * norm.cdf((8.0 - 0.25 * 25) / 0.75)
+    within(noisy.counters["refreshes"] / 20_000, p, math.sqrt(p * (1 - p) / 20_000))
+
+
 # presets and saved states -----------------------------------------------------------------------
 OLD_PCM = dict(update="pulsed", commit="pulse", dac_bits=7, adc_bits=9, adc_bound=12.0,
                w_max_v=0.02, g_min=0.0, g_max=25.0, levels=201, dw_min_dtod=0.2,
@@ -370,7 +461,9 @@ def test_old_presets_keep_their_names_and_values():
     defaults = DeviceConfig()
     for name in ("ideal", "pcm-symmetric", "reram-symmetric"):
         c = make_config(name)
-        assert all(getattr(c, f) == getattr(defaults, f) for f in NEW_FIELDS), name
+        changed = {"pair_grid"} if name == "ideal" else set()  # its levels, on a pair grid
+        assert all(getattr(c, f) == getattr(defaults, f) for f in NEW_FIELDS
+                   if f not in changed), name
     pcm = make_config("pcm")
     assert (pcm.mapping, pcm.set_only, pcm.refresh, pcm.step_model, pcm.drift_nu_g,
             pcm.rn1f, pcm.drift_compensation, pcm.compensation_read,
