@@ -39,7 +39,7 @@ from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields
 from cml_edge.core.finite import NonFiniteError, check_finite, dumps
 from cml_edge.engine import limits
-from cml_edge.engine.stop import stop_on_signals, stop_signal
+from cml_edge.engine.stop import interrupt_behind, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export, lava)
@@ -78,8 +78,11 @@ def main(argv: list[str] | None = None) -> int:
     except (RunError, NonFiniteError) as exc:  # a full disk, a lost scheduler, a device
         print(f"cml-edge: error: {exc}", file=sys.stderr)  # that produced NaN: one line
         return 1
-    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM: workers ended, no half file
-        sig = stop_signal(exc)
+    except (KeyboardInterrupt, Exception) as exc:  # Ctrl-C or SIGTERM: workers ended, no
+        stop = interrupt_behind(exc)  # half file; any other exception is a bug, not hidden
+        if stop is None:
+            raise
+        sig = stop_signal(stop)
         print(f"cml-edge: stopped by {sig.name}; nothing was half-written", file=sys.stderr)
         return 128 + sig
     finally:

@@ -17,6 +17,7 @@ from cml_edge.backends import backend_spec
 from cml_edge.cli.args import Progress, add_backend, backend_options, command_line, int_at_least
 from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
+from cml_edge.io.files import atomic_write_text
 
 
 def _number(text: str) -> float:
@@ -59,8 +60,8 @@ def add_parsers(sub) -> None:
 
 
 def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
-    from cml_edge.backends.crossbar.characterize import characterize, plot
-    from cml_edge.io.files import atomic_write_text, writable_file
+    from cml_edge.backends.crossbar.characterize import characterize, figure
+    from cml_edge.io.files import writable_file
 
     if args.backend != "crossbar":
         raise InputError(f"device characterize has no model of --backend {args.backend!r} "
@@ -76,18 +77,27 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     result = characterize(preset, devices=args.devices or 10_000, seed=args.seed,
                           targets=args.targets, times=args.times,
                           progress=Progress("characterize"), **options)
+    return _written(args, result, figure)
+
+
+def _written(args: argparse.Namespace, result: dict[str, Any], figure: Any) -> dict[str, Any]:
+    """``result`` with its command, written to ``--out`` (JSON) and ``--plot`` (``figure``
+    of it, PNG)."""
     result["command"] = command_line()
     if args.out:
         atomic_write_text(args.out, dumps(result, indent=1) + "\n")
     if args.plot:
-        plot(result, args.plot)
+        from cml_edge.io.figures import pyplot, save_png
+
+        fig = figure(result)
+        save_png(fig, args.plot)
+        pyplot().close(fig)
     return result
 
 
 def _against(args: argparse.Namespace, preset: str, options: dict[str, Any]) -> dict[str, Any]:
     """``--against aihwkit``: :func:`cml_edge.backends.crossbar.aihwkit.compare.compare`."""
-    from cml_edge.backends.crossbar.aihwkit.compare import DEFAULT_DEVICES, compare, plot
-    from cml_edge.io.files import atomic_write_text
+    from cml_edge.backends.crossbar.aihwkit.compare import DEFAULT_DEVICES, compare, figure
 
     for flag in ("targets", "times"):
         if getattr(args, flag) is not None:
@@ -95,12 +105,7 @@ def _against(args: argparse.Namespace, preset: str, options: dict[str, Any]) -> 
                              "default targets and times)")
     result = compare(preset, devices=args.devices or DEFAULT_DEVICES, seed=args.seed,
                      progress=Progress("characterize"), **options)
-    result["command"] = command_line()
-    if args.out:
-        atomic_write_text(args.out, dumps(result, indent=1) + "\n")
-    if args.plot:
-        plot(result, args.plot)
-    return result
+    return _written(args, result, figure)
 
 
 def show_against(r: dict[str, Any]) -> None:

@@ -73,6 +73,19 @@ def stop_signal(exc: KeyboardInterrupt) -> signal.Signals:
     return signal.Signals(exc.signum if isinstance(exc, Stopped) else signal.SIGINT)
 
 
+def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
+    """The stop request behind ``exc``, if any: a signal that lands inside code that turns
+    every exception into its own (a C extension being imported raises ``ImportError:
+    initialization failed`` from it) is still a stop, not a bug."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 @contextmanager
 def signals_held() -> Iterator[None]:
     """SIGINT and SIGTERM are noted while inside and raised on leaving. Around forking pool

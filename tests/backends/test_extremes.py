@@ -116,7 +116,7 @@ def test_the_estimate_knows_each_command_s_own_sizes():
     def est(*argv):
         return limits.estimate(build_parser().parse_args([str(a) for a in argv]))
 
-    dqn, cml = est("dqn", "train", "--seeds", 1, "--steps", 10**6), est(
+    dqn, cml = est("dqn", "train", "--seeds", 1, "--steps", 10**6, "--models", "m"), est(
         "train", "--walks", 1000, "--steps", 1000, "--out", "m.npz")
     assert dqn.seconds > 100 * cml.seconds
     with pytest.raises(InputError, match=r"^--trials 1e\+06 x a step budget of 100000 "):

@@ -177,3 +177,37 @@ def test_a_signal_while_workers_fork_is_raised_after_and_ends_the_fork():
     assert out.stdout.split() == ["inside", str(128 + signal.SIGTERM), "raised",
                                   str(int(signal.SIGTERM))], out
     assert out.stderr == ""
+
+
+def test_a_stop_inside_an_import_is_a_stop_not_a_traceback(monkeypatch, capsys, tmp_path):
+    """A SIGTERM handled while a C extension initialises surfaces as ``ImportError:
+    initialization failed`` raised from the Stopped; the command still exits as stopped."""
+    from cml_edge import cli
+    from cml_edge.engine.stop import Stopped
+
+    def run(args):
+        try:
+            raise Stopped(signal.SIGTERM)
+        except Stopped as exc:
+            raise ImportError("initialization failed") from exc
+
+    parser = cli.build_parser()
+    args = parser.parse_args(["train", "--out", str(tmp_path / "m.npz")])
+    args.run = run
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    monkeypatch.setattr(parser, "parse_args", lambda argv: args)
+    assert cli.main([]) == 128 + signal.SIGTERM
+    assert not (tmp_path / "m.npz").exists()
+    assert "stopped by SIGTERM" in capsys.readouterr().err
+
+
+def test_an_exception_without_a_stop_behind_it_is_raised():
+    from cml_edge.engine.stop import interrupt_behind
+
+    try:
+        try:
+            raise ValueError("a bug")
+        except ValueError as inner:
+            raise ImportError("initialization failed") from inner
+    except ImportError as exc:
+        assert interrupt_behind(exc) is None

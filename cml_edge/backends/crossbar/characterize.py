@@ -244,17 +244,3 @@ def figure(result: dict[str, Any]) -> Any:
     fig.tight_layout()
     return fig
 
-
-def plot(result: dict[str, Any], path: Any) -> None:
-    """:func:`figure`, written atomically to ``path`` (PNG)."""
-    import io
-
-    import matplotlib.pyplot as plt
-
-    from cml_edge.io.files import atomic_write
-
-    fig = figure(result)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write(path, lambda f: f.write(buf.getvalue()))
