@@ -162,8 +162,8 @@ def _scenario_sizes(args: Any) -> tuple[float, float, float, float, str]:
     b = BUDGETS[name]
     runs = [run for _, run in scenario.runs(b)]
     repeat = BREAKPOINT_RUNS if args.command == "breakpoint" else 1
-    plan_steps = sum(p["trials"] * (p["max_steps"] or PLAN_BUDGET)
-                     for run in runs for p in run["parts"])
+    plan_steps = sum(p["trials"] * (p.get("max_steps") or PLAN_BUDGET)  # a robot drive:
+                     for run in runs for p in run["parts"])  # robot.planning.MAX_ACTIONS
     return 2.0 * len(runs) * b.walks, float(b.steps), float(plan_steps), float(repeat), name
 
 

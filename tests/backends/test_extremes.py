@@ -127,6 +127,10 @@ def test_the_estimate_knows_each_command_s_own_sizes():
     assert full.seconds > 100 * tiny.seconds and "--budget full" in dict(full.terms)
     bp = est("breakpoint", "--scenario", "paper", "--knob", "bits", "--seeds", 2)
     assert bp.seconds == pytest.approx(limits.BREAKPOINT_RUNS * full.seconds)
+    from cml_edge.scenarios.registry import SCENARIOS
+
+    for name in SCENARIOS:  # every scenario's parts, a robot drive's too
+        assert est("scenario", name, "--seeds", 2).seconds > 0, name
 
 
 # valid extremes ---------------------------------------------------------------------------
