@@ -19,7 +19,8 @@ measurements with the formulas (``tests/backends/crossbar/test_crossbar_physics.
 - ``pulses``: per conductance and direction, the mean and std of the change one pulse
   makes, counted positive in the direction asked (devices programmed noise-free to the
   conductance, pair refresh off: the device, not the pair). A SET-only device cannot be
-  pulsed down: its down steps are 0;
+  pulsed down: its down steps are 0; ``hidden_*`` the same of the hidden state, G less its
+  write-noise offset (the apparent step where the preset has no write noise);
 - ``pulses_to_full_range``: pulses that take the mean device from g_min to 90 % of the
   range (``up``) and from g_max to 10 % (``down``); None when it never gets there
   (at most 20,000 pulses; a SET-only device has no down pulses).
@@ -140,13 +141,16 @@ def characterize(preset: str = "pcm", *, devices: int = 10_000, seed: int = 0,
             for direction in ("up", "down"):
                 arr = _column(preset, fields, g, devices, seed, **quiet)
                 before = arr.state.Gp[:, 0].copy()
+                held = before - arr.state.wn[0, :, 0]
                 _one_pulse(arr, direction == "up")
-                step = arr.state.Gp[:, 0] - before
-                if direction == "down":
-                    step = -step
+                sign = -1.0 if direction == "down" else 1.0
+                step = sign * (arr.state.Gp[:, 0] - before)
+                moved = sign * (arr.state.Gp[:, 0] - arr.state.wn[0, :, 0] - held)
                 pulses.append({"g_us": g, "direction": direction,
                                "mean_step_us": float(step.mean()),
-                               "step_std_us": float(step.std(ddof=1))})
+                               "step_std_us": float(step.std(ddof=1)),
+                               "hidden_mean_step_us": float(moved.mean()),
+                               "hidden_step_std_us": float(moved.std(ddof=1))})
             tick()
         span = g_max - g_min
         for direction, start, goal in (("up", g_min, g_min + 0.9 * span),

@@ -75,6 +75,14 @@ def test_against_reram_pulses_both_ways():
     assert 8.0 < float(np.median(stds)) < 11.5
     # aihwkit's mean device reaches 90 % of the range in about 1,800 pulses
     assert 1200 < r["aihwkit"]["pulses"]["pulses_to_full_range"]["up"] < 2500
+    # under the write noise the means are of the hidden state's step, on both sides: one
+    # up pulse at 53.5 uS moves it about 0.33 uS (soft bounds, 0.4 of the way from w 0)
+    means = [row for row in r["rows"] if row["quantity"].startswith("mean")]
+    assert len(means) == 18 and all(row["quantity"] == "mean step, hidden (uS)"
+                                    for row in means)
+    first = means[0]
+    assert first["g_us"] == 53.5 and first["direction"] == "up"
+    assert 0.2 < first["aihwkit"] < 0.45 and 0.2 < first["project"] < 0.45
 
 
 @needs_aihwkit

@@ -11,7 +11,8 @@ torch for it (:mod:`cml_edge.backends.crossbar.aihwkit.runner` starts it). Tasks
   length 1, learning rate above the device's weight granularity, so every probability is
   clipped to 1), the weights read with ``get_weights`` before and after (the hidden weight
   plus write noise where the device has it; programmed without it, as the project's
-  characterisation programs noise-free: ``apply_write_noise_on_set`` off);
+  characterisation programs noise-free: ``apply_write_noise_on_set`` off), and where the
+  device has write noise the step of its hidden ``persistent_weights`` too;
 - ``inference``: ``PCMLikeNoiseModel``'s programming noise, drift coefficients, drift and
   accumulated read noise applied to conductances (the calls its inference tiles make);
 - ``bench``: seconds per CML training step and planning step on three tiles.
@@ -114,18 +115,25 @@ def pulses(req: dict[str, Any]) -> dict[str, Any]:
         tile.set_weights(torch.full((n, 1), float(w)))
         return tile
 
+    def hidden(tile: Any) -> Any:  # a device with write noise keeps the weight it holds
+        h = tile.get_hidden_parameters().get("persistent_weights")  # apart from the noise
+        return None if h is None else h.flatten().double()
+
     steps = []
     for w in req["weights"]:
         for direction in req["directions"]:
             tile = column(w)
-            before = tile.get_weights()[0][:, 0].double()
+            before, held = tile.get_weights()[0][:, 0].double(), hidden(tile)
             tile.update(x, push[direction])
-            step = tile.get_weights()[0][:, 0].double() - before
-            if direction == "down":
-                step = -step
-            steps.append({"w": w, "direction": direction, "mean": float(step.mean()),
-                          "std": float(step.std()), "before_mean": float(before.mean()),
-                          "wrong_way": float((step < 0).double().mean())})
+            sign = -1.0 if direction == "down" else 1.0
+            step = sign * (tile.get_weights()[0][:, 0].double() - before)
+            row = {"w": w, "direction": direction, "mean": float(step.mean()),
+                   "std": float(step.std()), "before_mean": float(before.mean()),
+                   "wrong_way": float((step < 0).double().mean())}
+            if held is not None:
+                moved = sign * (hidden(tile) - held)
+                row.update(hidden_mean=float(moved.mean()), hidden_std=float(moved.std()))
+            steps.append(row)
     full: dict[str, int | None] = {}
     lo, hi = dev.w_min, dev.w_max
     for direction in req["full_range"]:
