@@ -38,7 +38,8 @@ def what_compiles(args: argparse.Namespace) -> tuple[str, str]:
         return "every backend's kernels and loops", BENCH_MINUTES
     if args.command == "device":
         return f"the {backend} kernels", COLD_MINUTES
-    world = "robot" if args.command == "robot" else "grid"
+    robot = args.command == "robot" or getattr(args, "name", None) == "robot"  # a scenario
+    world = "robot" if robot else "grid"
     device = f"the {backend} kernels and " if backend else "the "
     return f"{device}{world} loops", COLD_MINUTES
 

@@ -12,7 +12,7 @@ from numba import njit
 
 from cml_edge.bench.timing import ratios
 from cml_edge.cli import build_parser
-from cml_edge.cli.compiling import announce_compiles
+from cml_edge.cli.compiling import announce_compiles, what_compiles
 from cml_edge.cli.output import num, saturation, show_fields
 from cml_edge.cli.tools import show_bench
 
@@ -200,6 +200,8 @@ def test_the_compile_notice_is_one_line_at_the_first_compile(capsys):
     with announce_compiles(args):
         kernel(3, 4)  # compiled: nothing to say
     assert capsys.readouterr().err == ""
+    for argv in (["robot", "train", "--out", "r.npz"], ["scenario", "robot"]):
+        assert what_compiles(build_parser().parse_args(argv))[0].endswith(" robot loops"), argv
 
 
 def _run_cold_or_warm(cache: Path, tmp_path: Path) -> subprocess.CompletedProcess:
