@@ -75,6 +75,9 @@ def _run_ci(tmp_path: Path, readme: str) -> tuple[int, list[str]]:
     stubs.mkdir()
     for name in ("python", "pip"):
         _stub(stubs, name)
+    (tmp_path / "scripts").mkdir()
+    for script in (ROOT / "scripts").glob("*.sh"):  # the environments' builders: logged
+        _stub(tmp_path / "scripts", script.name)
     log = tmp_path / "log"
     log.touch()
     env = dict(os.environ, PATH=f"{stubs}{os.pathsep}{os.environ['PATH']}",
