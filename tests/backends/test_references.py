@@ -51,6 +51,8 @@ CASES: dict[str, tuple[str, dict]] = {
     "loihi2-full": ("loihi2", {"payload_scale": "full", "num_message_bits": 12,
                                "weight_exp": 3}),
     "loihi2-strict": ("loihi2", {"strict": True, "num_weight_bits": 4}),
+    "loihi2-stochastic": ("loihi2", {"traces": "stochastic", "t_epoch": 2,
+                                     "sign_mode": "inhibitory"}),
     **{f"crossbar-{p}": ("crossbar", {"preset": p})
        for p in ("ideal", "pcm", "reram", "pcm-symmetric", "reram-symmetric")},
     "crossbar-noisy-reads": ("crossbar", {"preset": "pcm", "read_noise": 0.02,

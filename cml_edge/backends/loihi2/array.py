@@ -26,6 +26,7 @@ gives what Lava's ``Dense`` needs to hold the same weights.
 
 from __future__ import annotations
 
+import json
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -38,6 +39,7 @@ from cml_edge.backends.loihi2.config import (
     LEARNED_GAIN,
     PAYLOAD_SCALES,
     TERMS,
+    TRACES,
     Loihi2Config,
     Loihi2Params,
     check_scale,
@@ -161,7 +163,8 @@ class Loihi2Array(SynapticArray):
                 "weight_exp": p.exp, "scale_exp": p.scale_exp,
                 "sign_mode": SIGN_MODES[p.sign_mode], "t_epoch": p.t_epoch,
                 "draws": DRAWS[p.draws], "payload_scale": PAYLOAD_SCALES[p.payload_scale],
-                "terms": TERMS[p.terms], "mapping": self.mapping, "strict": bool(p.strict)}
+                "terms": TERMS[p.terms], "traces": TRACES[p.traces], "mapping": self.mapping,
+                "strict": bool(p.strict)}
 
     @property
     def config(self) -> Loihi2Config:
@@ -250,6 +253,24 @@ class Loihi2Array(SynapticArray):
                 "lsb_truncated": int(np.count_nonzero(truncated != w))}
 
     # persistence ------------------------------------------------------------------
+    @classmethod
+    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """A state saved before the ``traces`` field: its parameter record gains it, 0
+        (``nearest``, the one formation there was), where the record now holds it; the
+        options lack it and so read as ``nearest``."""
+        if "params" not in d or "__params__" not in d:
+            return d
+        try:
+            stored = json.loads(str(d["__params__"]))
+        except json.JSONDecodeError:
+            return d  # refused by the loader
+        fields = list(Loihi2Params._fields)
+        a = np.asarray(d["params"])
+        if stored != [f for f in fields if f != "traces"] or a.shape != (len(stored),):
+            return d
+        return {**d, "params": np.insert(a, fields.index("traces"), 0).astype(a.dtype),
+                "__params__": np.array(json.dumps(fields))}
+
     @classmethod
     def _restore(cls, state: Loihi2State, options: dict[str, Any]) -> Loihi2Array:
         config = make_config(**options)

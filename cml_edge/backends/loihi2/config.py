@@ -32,6 +32,7 @@ MAX_T_EPOCH = 63  # Lava: W_EPOCH_TIME = 6 (tx, ty are 6-bit)
 DRAWS = ("shared", "independent")
 PAYLOAD_SCALES = ("safe", "full")
 TERMS = ("engine", "exact")
+TRACES = ("nearest", "stochastic")
 MAPPINGS = ("learned", "initial")
 LEARNED_GAIN = (0, 0, 3)
 """The ``learned`` mapping's scale gain per matrix [W_q, W_k, W_v], in powers of two over
@@ -129,6 +130,37 @@ class Loihi2Config:
     lr post_i pre_j computed in float64 and stochastically rounded to the accumulator's
     7 fraction bits (one draw per term), the rest as the chip. ``exact`` measures what the
     engine's term formation costs the CML. Default engine."""
+    traces: str = option("nearest", choices=TRACES)
+    """How an update's two traces are formed from post and pre (``terms`` ``engine``;
+    with ``exact`` no trace is formed and this has no effect):
+
+    - ``nearest``: each trace rounded to nearest (ties to even) at its vector's finest
+      scale, 7 bits; where the rule's exponent would be negative, rounded to nearest at a
+      coarser scale instead (:func:`~cml_edge.backends.loihi2.kernels.coarsen`).
+      A post trace is what a programmable neuron emitting its signed error as a graded
+      spike (the 3-factor rule's y1, ``s_in_y1``) gives with a rounding shift; a pre
+      trace the pre neuron's graded spike (Lava's x1, round(payload / 2)). Values below
+      half a unit round to 0, and the engine's floored ``>> 3`` of the product floors
+      negative terms away from zero: the engine's bias.
+    - ``stochastic``: the same scales, but every trace is rounded stochastically,
+      up with probability its fraction (one uniform draw from the array's counter-based
+      stream per entry with a fraction, post entries first, then pre, counted in
+      ``rng_draws``), and the pre trace keeps 3 - t low bits zero, t the trailing zero
+      bits of the rule's mantissa m (m = 4, the default rates' mantissa: one bit; the
+      pre trace holds 7 - (3 - t) bits): then 8 divides m X Y and the engine's
+      ``>> 3`` is exact, so every term is an unbiased estimate of lr post pre (its
+      draws independent of each other). On the chip this is the sending neurons' work:
+      a programmable neuron forming its graded spike with a dithered rounding (a
+      pseudo-random number added below the payload's LSB before the shift that forms
+      it), the pre neurons sending their payloads with those low bits cleared. Lava
+      models no such neuron: its bit-accurate LIF has no random source, and the
+      learning engine's ``TraceRandom`` is one draw per time step shared by every
+      trace, for trace decay and impulse addition, not a dither per neuron. That
+      dither is neuron microcode Lava does not model; here its draws come from the
+      array's stream. The engine's rule, accumulator and write-back are unchanged, so
+      Lava runs these traces as it runs the others (``cml-edge lava verify``).
+
+    Default nearest."""
     mapping: str = option("learned", choices=MAPPINGS, kernel=False)
     """How the float matrices map to the chip's integers: ``learned``, each matrix's scale
     chosen for the range it holds after learning (:data:`LEARNED_GAIN`: W_v 2^3 finer than
@@ -231,6 +263,6 @@ def check_scale(scale_exp: int, what: str) -> int:
 
 
 __all__ = ["COST", "DRAWS", "KNOBS", "LEARNED_GAIN", "MAPPINGS", "TERMS", "MAX_MESSAGE_BITS",
-           "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP", "PAYLOAD_SCALES", "PRESETS",
+           "MAX_T_EPOCH", "MAX_WEIGHT_EXP", "MIN_WEIGHT_EXP", "PAYLOAD_SCALES", "PRESETS", "TRACES",
            "Loihi2Config", "Loihi2Params", "check_scale", "loihi2_params", "make_config",
            "payload_l1_max"]

@@ -15,7 +15,8 @@ What is compared (:func:`verify`):
   the emulation's float read with u 2^(e - scale_exp - 6);
 - learning: K updates of the CML's shape (a one-hot pre, the post a difference of two of
   the matrix's columns, the model's learning rate) become the rule literal and traces as the
-  emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`); Lava's
+  emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`; with
+  ``traces`` ``stochastic`` drawn from a copy of the array's stream); Lava's
   ``LearningDense`` runs them one epoch each (t_epoch 1). Compared per epoch: the traces
   the rule read (Lava decays each trace for one step with time constant 65535 before the
   rule reads it, a stochastic rounding that can move a trace by one), the weights Lava
@@ -148,13 +149,16 @@ def _updates(arr: Loihi2Array, lr: float, epochs: int, rng: np.random.Generator)
     rule = np.zeros((epochs, 2), np.int64)
     Xs = np.zeros((epochs, cols), np.int64)
     Ys = np.zeros((epochs, rows), np.int64)
+    stochastic = p.traces == kern.STOCHASTIC and p.terms != kern.EXACT
+    stream = arr.state.rng.copy()  # the array's own stream, the array left as it is
     for t in range(epochs):
         pre = np.zeros(cols)
         pre[rng.integers(cols)] = 1.0
         a, b = rng.integers(cols, size=2)
         post = Wf[:, a] - Wf[:, b] + 0.01 * rng.standard_normal(rows)
-        m, k = kern.engine_traces(post, pre, rows, cols, float(lr),
-                                  int(p.scale_exp) - int(p.exp), Xs[t], Ys[t])
+        m, k, _ = kern.engine_traces(post, pre, rows, cols, float(lr),
+                                     int(p.scale_exp) - int(p.exp), stochastic, stream,
+                                     Xs[t], Ys[t])
         rule[t] = (m, k)
     return rule, Xs, Ys
 

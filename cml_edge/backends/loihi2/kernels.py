@@ -47,7 +47,10 @@ Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
    cannot shift the term that far: the traces are formed coarser instead, first by the
    low bits every trace of a vector has zero (lossless; a one-hot vector has 6), then a
    bit at a time from the factor with the larger trace (:func:`coarsen`). A term below 8
-   then floors to 0 (positive) or -1 (negative): the engine's bias;
+   then floors to 0 (positive) or -1 (negative): the engine's bias. With ``traces``
+   ``stochastic`` the traces are rounded stochastically at the same final scales, the
+   pre traces with their low 3 - t bits zero (t the trailing zero bits of m), so that
+   the shift by 3 is exact and each term unbiased (:func:`engine_traces`);
 3. the write-back at the end of a learning epoch (:func:`end_epoch`), as
    ``_apply_learning_rules``: the accumulator (which holds w << 7 plus the epoch's terms)
    is saturated by sign mode (excitatory >= 0, inhibitory <= 0), stochastically rounded to
@@ -68,7 +71,9 @@ CML's sum of a walk's outer products, so this is the emulation of an engine that
 its accumulator across the epoch.
 
 Randomness: the array's counter-based stream (``uniform(rng[0], rng[1])``), advanced by
-one per shared draw or by rows x cols per epoch with independent draws.
+one per shared draw or by rows x cols per epoch with independent draws, and, with
+``traces`` ``stochastic``, by one per trace entry with a fraction (post, then pre) at
+each update.
 
 Counters (``Loihi2Array.counter_names``): ``macs`` / ``weight_reads`` the synaptic
 operations of reads (nonzero payloads x fan-out); ``neuron_wraps``; ``update_macs``
@@ -129,6 +134,7 @@ ACC_BITS = 16  # W_ACCUMULATOR_S
 SHARED = 0  # index of "shared" in config.DRAWS
 SAFE = 0  # index of "safe" in config.PAYLOAD_SCALES
 EXACT = 1  # index of "exact" in config.TERMS
+STOCHASTIC = 1  # index of "stochastic" in config.TRACES
 MIXED, EXCITATORY, INHIBITORY = 0, 1, 2  # indices in lava.SIGN_MODES
 
 
@@ -589,24 +595,77 @@ def _add_exact(state, post, pre, lr, tally):
 
 
 @kernel
-def engine_traces(post, pre, rows, cols, lr, gain_exp, X, Y):
-    """(m, k): the rule literal's mantissa m and the term's shift k of the update
+def exact_shift_bits(m):
+    """z: the low bits a pre trace keeps zero so that 2^3 divides m X Y and the engine's
+    ``>> 3`` drops nothing: 3 minus the trailing zero bits of m (m = 4: 1; m odd: 3)."""
+    a = abs(m)
+    t = 0
+    while t < PRODUCT_SHIFT and a != 0 and (a & 1) == 0:
+        a >>= 1
+        t += 1
+    return PRODUCT_SHIFT - t
+
+
+@kernel
+def stochastic_at(x, n, e, key, ctr, out):
+    """out[:n] = x 2^-e rounded stochastically: the floor, plus one where the draw
+    ``uniform(key, c)`` is below the fraction, c counting from ``ctr`` over the entries
+    with a fraction, in index order (an entry without one draws nothing). Returns the
+    draws."""
+    used = 0
+    near = -1000 <= e <= 1000
+    scale = pow2(-e) if near else 0.0
+    for i in range(n):
+        v = x[i] * scale if near else math.ldexp(x[i], -e)
+        f = math.floor(v)
+        q = np.int64(f)
+        if v != f:
+            if uniform(key, ctr + used) < v - f:
+                q += 1
+            used += 1
+        out[i] = q
+    return used
+
+
+@kernel
+def engine_traces(post, pre, rows, cols, lr, gain_exp, stochastic, rng, X, Y):
+    """(m, k, draws): the rule literal's mantissa m and the term's shift k of the update
     lr post pre^T (module docstring, steps 1-2), with the traces in Y[:rows] (post) and
     X[:cols] (pre); ``gain_exp`` is scale_exp - weight_exp. Where k would be negative,
     the traces are formed coarser (:func:`coarsen`) and k is 0. The rule this is in
-    Lava's syntax: ``m * 2^(k - 7) * x0 * x1 * y1``."""
+    Lava's syntax: ``m * 2^(k - 7) * x0 * x1 * y1``.
+
+    With ``stochastic`` (``traces`` ``stochastic``, for m != 0) the pre traces keep
+    :func:`exact_shift_bits` low bits zero (their scale holds max |pre| in 127 >> z),
+    the coarsening is chosen on the nearest traces as above, and then both vectors are
+    rounded stochastically at their final scales (:func:`stochastic_at`, post first,
+    then pre) from the stream ``rng`` (key, next counter; advanced by the draws, which
+    are returned; 0 otherwise)."""
     m, e_lr = lr_literal(lr)
+    sr = stochastic and m != 0
+    z = exact_shift_bits(m) if sr else 0
     e_y = quantize_vector(post, rows, TRACE_MAX, Y)
-    e_x = quantize_vector(pre, cols, TRACE_MAX, X)
-    k = e_lr + e_x + e_y + gain_exp + PRODUCT_SHIFT + FRAC_BITS
+    e_x = quantize_vector(pre, cols, TRACE_MAX >> z, X)
+    k = e_lr + e_x - z + e_y + gain_exp + PRODUCT_SHIFT + FRAC_BITS
+    cx = 0
+    cy = 0
     if m != 0 and k < 0:
         cx, cy = coarsen(-k, X, cols, Y, rows)
-        if cx > 0:
-            quantize_at(pre, cols, e_x + cx, X)
-        if cy > 0:
-            quantize_at(post, rows, e_y + cy, Y)
         k = 0
-    return m, k
+    if sr:
+        key = rng[0]
+        ctr = np.int64(rng[1])
+        draws = stochastic_at(post, rows, e_y + cy, key, ctr, Y)
+        draws += stochastic_at(pre, cols, e_x + cx, key, ctr + draws, X)
+        for j in range(cols):
+            X[j] <<= np.int64(z)
+        rng[1] = np.uint64(ctr + draws)
+        return m, k, draws
+    if cx > 0:
+        quantize_at(pre, cols, e_x + cx, X)
+    if cy > 0:
+        quantize_at(post, rows, e_y + cy, Y)
+    return m, k, 0
 
 
 @kernel
@@ -618,7 +677,9 @@ def loihi2_outer_update(state, post, pre, lr, defer):
     c[OUTER_UPDATES] += 1
     Y = state.yq
     X = state.xq
-    m, k = engine_traces(post, pre, rows, cols, lr, p.scale_exp - p.exp, X, Y)
+    m, k, draws = engine_traces(post, pre, rows, cols, lr, p.scale_exp - p.exp,
+                                p.traces == STOCHASTIC and p.terms != EXACT, state.rng, X, Y)
+    c[RNG_DRAWS] += draws
     tally = state.tally
     tally[0] = 0
     tally[1] = 0

@@ -9,7 +9,8 @@ norm, branch-free term lines, a skipped clip where no term can leave the range);
 ``tests/backends/test_references.py`` runs each kernel and its function here on copies
 of the same state and requires the same bits, states, counters and errors. Integer sums
 are exact in any order; the write-back's draws are one shared uniform per epoch, or one
-per synapse at counter base + i cols + j.
+per synapse at counter base + i cols + j; stochastic traces take one draw per entry with
+a fraction, post then pre, before the update's terms.
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from cml_edge.backends.loihi2.kernels import (
     SAFE,
     SHARED,
     SIGN_CLIPS,
+    STOCHASTIC,
     TRACE_MAX,
     UPDATE_MACS,
     WEIGHT_BITS,
@@ -186,6 +188,30 @@ def engine_term(m: int, x: int, y: int, k: int) -> tuple[int, int]:
     return clip_acc(v << k)
 
 
+def exact_shift_bits(m: int) -> int:
+    """The low bits a pre trace keeps zero so that 8 divides m X Y: 3 minus the trailing
+    zero bits of m, at most 3 of them."""
+    a = abs(m)
+    return PRODUCT_SHIFT - min(PRODUCT_SHIFT, (a & -a).bit_length() - 1)
+
+
+def stochastic_traces(state: State, x: np.ndarray, e: int) -> list[int]:
+    """x 2^-e rounded stochastically: floor, plus one where the next draw of the array's
+    stream is below the fraction (one draw per entry with a fraction, in index order)."""
+    key, ctr = state.rng[0], int(state.rng[1])
+    out = []
+    for v in x:
+        s = math.ldexp(float(v), -e)
+        q = math.floor(s)
+        if s != q:
+            q += uniform(key, ctr) < s - q
+            ctr += 1
+        out.append(int(q))
+    state.counters[RNG_DRAWS] += ctr - int(state.rng[1])
+    state.rng[1] = np.uint64(ctr)
+    return out
+
+
 def coarsen(deficit: int, X: list[int], Y: list[int]) -> tuple[int, int]:
     """(cx, cy): bits by which the pre (X) and post (Y) traces are formed coarser so that
     the rule's exponent rises by ``deficit``: first the low bits every trace of a vector
@@ -221,20 +247,28 @@ def outer_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float,
     c = state.counters
     c[OUTER_UPDATES] += 1
     m, e_lr = lr_literal(lr)
+    stochastic = p.traces == STOCHASTIC and p.terms != EXACT and m != 0
+    z = exact_shift_bits(m) if stochastic else 0
     e_y, Y = quantise(post, TRACE_MAX)
-    e_x, X = quantise(pre, TRACE_MAX)
-    k = e_lr + e_x + e_y + p.scale_exp - p.exp + PRODUCT_SHIFT + FRAC_BITS
+    e_x, X = quantise(pre, TRACE_MAX >> z)
+    k = e_lr + e_x - z + e_y + p.scale_exp - p.exp + PRODUCT_SHIFT + FRAC_BITS
     terms = psat = asat = 0
     acc = state.acc
     if p.terms == EXACT:
         if lr != 0.0:
             terms, psat, asat = exact_terms(state, post, pre, lr)
         m = 0
-    elif m != 0 and k < 0:  # the engine cannot shift that far: coarser traces
-        cx, cy = coarsen(-k, X, Y)
-        X = payloads_at(pre, e_x + cx) if cx > 0 else X
-        Y = payloads_at(post, e_y + cy) if cy > 0 else Y
-        k = 0
+    else:
+        cx = cy = 0
+        if m != 0 and k < 0:  # the engine cannot shift that far: coarser traces
+            cx, cy = coarsen(-k, X, Y)
+            k = 0
+        if stochastic:
+            Y = stochastic_traces(state, post, e_y + cy)
+            X = [v << z for v in stochastic_traces(state, pre, e_x + cx)]
+        else:
+            X = payloads_at(pre, e_x + cx) if cx > 0 else X
+            Y = payloads_at(post, e_y + cy) if cy > 0 else Y
     if m != 0:
         terms = sum(v != 0 for v in X) * sum(v != 0 for v in Y)
         for i in range(len(Y)):

@@ -75,6 +75,24 @@ def test_a_trained_model_reads_and_learns_in_lava_bit_for_bit(lava_env, model, c
 
 
 @pytest.mark.lava
+def test_stochastic_traces_learn_in_lava_bit_for_bit(lava_env, tmp_path, capsys):
+    """Stochastically rounded traces reach Lava as graded spikes like any others: the
+    engine's arithmetic on them is Lava's, integer for integer."""
+    path = tmp_path / "s.npz"
+    assert main(["train", "--backend", "loihi2", "--set", "traces=stochastic", "--arena", "6",
+                 "--walks", "2", "--steps", "60", "--path", "reference", "--out",
+                 str(path)]) == 0
+    capsys.readouterr()
+    assert main(["lava", "verify", str(path), "--epochs", "6", "--reads", "8", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["bit_exact"] is True
+    for name in ("W_q", "W_k", "W_v"):
+        r = result["learning"][name]
+        assert r["engine_equal"] == r["epochs"] == 6 - r["not_expressible"]
+        assert r["weights_equal"] >= r["traces_equal"] - 1
+
+
+@pytest.mark.lava
 def test_overflowing_reads_are_what_lava_computes(lava_env):
     """Full-scale payloads overflow the neuron's current: one 2^24 correction, int32 sums."""
     W = np.random.default_rng(1).normal(0, 0.1, (6, 5))

@@ -19,7 +19,7 @@ from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2 import lava
 from cml_edge.backends.loihi2 import reference as ref
 from cml_edge.backends.loihi2.array import Loihi2Array
-from cml_edge.backends.loihi2.config import LEARNED_GAIN, MAPPINGS, payload_l1_max
+from cml_edge.backends.loihi2.config import LEARNED_GAIN, MAPPINGS, TRACES, payload_l1_max
 from cml_edge.backends.quant import SaturationError, exponent_for
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.costs import ledger
@@ -360,6 +360,81 @@ def test_sub_unit_terms_vanish_or_floor_to_minus_one():
     assert exact.counters["rng_draws"] == 64  # a draw for each fractional term
 
 
+def test_exact_shift_bits_of_the_rule_mantissa():
+    assert [kern.exact_shift_bits(m) for m in (4, 5, 6, 7, -4, -6)] == [1, 3, 2, 3, 1, 2]
+    assert [ref.exact_shift_bits(m) for m in (4, 5, 6, 7, -4, -6)] == [1, 3, 2, 3, 1, 2]
+
+
+def test_stochastic_traces_of_exact_values_draw_nothing_and_give_the_same_terms():
+    """m = 4, so the pre trace keeps one low bit zero: X' = [32, 16, 8] at 6 bits (scale
+    2^-5), 2 X' stands for pre at 2^-6 as nearest's X; the same 7 bits of coarsening (3 of
+    X', 4 of Y) give X = 2 [4, 2, 1], Y = 4 and the terms (4 X 4) >> 3 = [16, 8, 4]."""
+    arr, post, pre, lr = fractional_case(0, traces="stochastic")
+    arr.outer_update(post, pre, lr, defer=True)
+    assert (arr.state.acc - arr.state.w * 128).tolist() == [[16, 8, 4]]
+    assert arr.counters["rng_draws"] == 0 and int(arr.state.rng[1]) == 0
+
+
+def test_stochastic_traces_make_sub_unit_terms_unbiased():
+    """The sub-unit case above (float terms [2, 1, 0.5] units): the pre trace is formed
+    one bit finer than nearest's (X' = [2, 1, 0.5 rounded stochastically], X = 2 X',
+    Y = 1), the shift is exact, and the half unit is 1 with probability 1/2 for either
+    sign: one draw per update, at counter t for update t."""
+    lr = 2.0**-15
+    for sign in (1.0, -1.0):
+        arr, post, pre, _ = fractional_case(4, traces="stochastic")
+        for _ in range(64):
+            arr.outer_update(sign * post, pre, lr, defer=True)
+        key = stream_key(4, STREAM_DEVICE + 2)
+        ups = sum(uniform(key, t) < 0.5 for t in range(64))
+        pending = (arr.state.acc - arr.state.w * 128)[0]
+        assert pending.tolist() == [sign * 128, sign * 64, sign * ups]
+        assert 16 < ups < 48 and arr.counters["rng_draws"] == 64
+        assert int(arr.state.rng[1]) == 64
+
+
+@given(st.lists(st.sampled_from([0.0, 1.0, -0.5, 0.3, -1e-4, 7.0, 0.013]), min_size=1,
+                max_size=9),
+       st.lists(st.sampled_from([0.0, 1.0, -0.25, 0.7, 1e-3, -3.0]), min_size=1, max_size=9),
+       st.sampled_from([0.001, 0.0013, 0.0015, -0.0017, 0.05, 2.0**-20]),
+       st.integers(-12, 12))
+@FAST
+def test_stochastic_traces_fit_seven_bits_and_make_the_shift_exact(post, pre, lr, gain):
+    post, pre = np.array(post), np.array(pre)
+    X = np.zeros(len(pre), np.int64)
+    Y = np.zeros(len(post), np.int64)
+    rng = np.array([stream_key(1, 2), 5], np.uint64)
+    m, k, draws = kern.engine_traces(post, pre, len(post), len(pre), lr, gain, True, rng,
+                                     X, Y)
+    assert int(rng[1]) == 5 + draws
+    assert np.abs(X).max() <= kern.TRACE_MAX and np.abs(Y).max() <= kern.TRACE_MAX
+    assert (X % (1 << kern.exact_shift_bits(m)) == 0).all()
+    assert ((m * np.outer(Y, X)) % 8 == 0).all()
+    if k > 0 and np.abs(post).max() > 0:  # not coarsened: post at its finest scale
+        e_y = exponent_for(np.abs(post).max(), kern.TRACE_MAX)
+        assert (np.abs(Y - np.ldexp(post, -e_y)) < 1).all()
+    X0, Y0 = np.zeros_like(X), np.zeros_like(Y)
+    assert kern.engine_traces(post, pre, len(post), len(pre), lr, gain, False, rng,
+                              X0, Y0)[2] == 0 and int(rng[1]) == 5 + draws  # nearest
+
+
+def test_stochastic_traces_are_unbiased():
+    """The mean of many stochastically rounded traces is the value at the trace's scale."""
+    post = np.array([0.3, -0.77, 1e-3, 0.0])
+    pre = np.array([0.6, -0.2])
+    rng = np.array([stream_key(9, 1), 0], np.uint64)
+    n = 4000
+    Ys, Xs = np.zeros((n, 4), np.int64), np.zeros((n, 2), np.int64)
+    for t in range(n):
+        m, k, _ = kern.engine_traces(post, pre, 4, 2, 0.001, 20, True, rng, Xs[t], Ys[t])
+    assert k > 0  # no coarsening: the scales are the vectors' finest
+    e_y = exponent_for(0.77, kern.TRACE_MAX)
+    e_x = exponent_for(0.6, kern.TRACE_MAX >> 1) - 1
+    assert np.abs(Ys.mean(0) - np.ldexp(post, -e_y)).max() < 0.03
+    assert np.abs(Xs.mean(0) - np.ldexp(pre, -e_x)).max() < 0.06
+    assert (Ys[:, 3] == 0).all() and set(np.unique(Ys[:, 0] - Ys[:, 0].min())) == {0, 1}
+
+
 def test_strict_mode_raises_on_accumulator_saturation():
     arr = program([[127]], strict=True)
     with pytest.raises(SaturationError, match="accumulator"):
@@ -376,7 +451,7 @@ def engine_case(draw):
     mode = draw(st.sampled_from(lava.SIGN_MODES))
     options = {"sign_mode": mode, "draws": draw(st.sampled_from(["shared", "independent"])),
                "t_epoch": draw(st.integers(1, 3)), "terms": draw(st.sampled_from(
-                   ["engine", "exact"]))}
+                   ["engine", "exact"])), "traces": draw(st.sampled_from(TRACES))}
     arr = Loihi2Array.from_float(np.ldexp(ints.astype(float), draw(st.integers(-12, 4))),
                                  seed=draw(st.integers(0, 99)), index=1, **options)
     n = draw(st.integers(1, 5))
@@ -521,6 +596,8 @@ def test_budget_and_parameter_bytes():
     ({}, "walk"),
     ({"draws": "independent", "t_epoch": 3, "num_message_bits": 8}, "step"),
     ({"payload_scale": "full", "num_message_bits": 16, "terms": "exact"}, "walk"),
+    ({"traces": "stochastic"}, "step"),
+    ({"traces": "stochastic", "mapping": "initial", "draws": "independent"}, "walk"),
 ])
 def test_reference_and_compiled_paths_agree_bit_for_bit(options, schedule):
     arena = GridArena.empty(12)
@@ -703,6 +780,26 @@ def test_the_mapping_survives_a_save_and_older_files_read_as_initial():
         del options["mapping"]
         d["__options__"] = np.array(json.dumps(options))
         assert array_from_state_dict(d).mapping == "initial"
+
+
+def test_the_traces_survive_a_save_and_older_files_read_as_nearest():
+    W = np.random.default_rng(8).normal(0, 0.1, (4, 3))
+    for traces in TRACES:
+        arr = Loihi2Array.from_float(W, seed=0, index=2, traces=traces)
+        d = arr.state_dict()
+        back = array_from_state_dict(d)
+        assert back.options()["traces"] == traces and back.state.params == arr.state.params
+    # a file saved before the field: no "traces" in its options or its parameter record
+    options = json.loads(str(d["__options__"]))
+    del options["traces"]
+    names = json.loads(str(d["__params__"]))
+    at = names.index("traces")
+    old = {**d, "__options__": np.array(json.dumps(options)),
+           "params": np.delete(d["params"], at), "__params__": np.array(json.dumps(
+               names[:at] + names[at + 1:]))}
+    back = array_from_state_dict(old)
+    assert back.options()["traces"] == "nearest"
+    assert back.state.params == Loihi2Array.from_float(W, seed=0, index=2).state.params
 
 
 def test_the_default_schedule_is_the_one_lava_runs(cli, tmp_path):
