@@ -116,6 +116,7 @@ class Loihi2Array(SynapticArray):
         else:  # clip_weights: the weights of the wrong sign become zero
             wrong = int(np.count_nonzero(W < 0 if mode == "excitatory" else W > 0))
             W = np.maximum(W, 0.0) if mode == "excitatory" else np.minimum(W, 0.0)
+        planned = 0
         fixed_scale = matrix_value(config, "scale_exp", index)
         fixed_exp = matrix_value(config, "weight_exp", index)
         if fixed_scale is None:
@@ -124,7 +125,10 @@ class Loihi2Array(SynapticArray):
                 S += LEARNED_GAIN[min(index, len(LEARNED_GAIN) - 1)]
             W_int = np.rint(np.ldexp(W, S))
             std_lo, std_hi = STANDARD_RANGE[mode]
-            wrong += int(np.count_nonzero((W_int < std_lo) | (W_int > std_hi)))
+            outside = int(np.count_nonzero((W_int < std_lo) | (W_int > std_hi)))
+            wrong += outside
+            if config.mapping == "learned":  # by design: the initial weights past the range
+                planned = outside  # the matrix holds after learning (counted, never refused)
             W_int = np.clip(W_int, std_lo, std_hi)
             opt = optimize_weight_bits(W_int, mode, loihi2=True)
             nb = config.num_weight_bits or max(opt.num_weight_bits, 1)
@@ -139,8 +143,8 @@ class Loihi2Array(SynapticArray):
             full = np.rint(np.ldexp(W, scale_exp - exp))
             wrong += int(np.count_nonzero((full < lo) | (full > hi)))
             w = truncate_weights(clip_weights(np.clip(full, -2**20, 2**20), mode), mode, nb)
-        if wrong and config.strict:
-            raise InputError(f"{what}: {wrong} weights do not fit sign mode {mode} "
+        if wrong > planned and config.strict:
+            raise InputError(f"{what}: {wrong - planned} weights do not fit sign mode {mode} "
                              "(strict mode)")
         params = loihi2_params(config, exp, scale_exp, nb)
         rows, cols = W.shape

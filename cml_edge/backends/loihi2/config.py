@@ -171,7 +171,9 @@ class Loihi2Config:
                           help="raise on any saturation instead of clipping and counting")
     """Raise on any overflow (a wrapped neuron input, a saturated learning accumulator or
     product, a clipped weight) instead of handling it as the chip does and counting it.
-    Default False."""
+    The learned mapping's clip of the initial weights past the range a matrix holds after
+    learning is the mapping's choice, not an overflow: counted (``program_clips``), never
+    refused. Default False."""
 
     def __post_init__(self) -> None:
         check_types(self, "loihi2 ")

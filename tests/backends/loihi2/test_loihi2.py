@@ -768,6 +768,10 @@ def test_the_learned_mapping_programs_w_v_finer_and_counts_its_clips():
         assert clipped > 0 and new.counters["program_clips"] == clipped
         want = lava.truncate_weights(np.clip(full, -128, 127).astype(np.int32) << 1, "mixed", 8)
         assert np.array_equal(new.state.w, want)
+        # the mapping's own clip is no overflow: strict mode counts it, as without strict
+        strict = Loihi2Array.from_float(W, seed=0, index=index, strict=True)
+        assert np.array_equal(strict.state.w, want)
+        assert strict.counters["program_clips"] == clipped
 
 
 def test_the_mapping_survives_a_save_and_older_files_read_as_initial():
