@@ -18,7 +18,7 @@ backend.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from importlib import import_module
 from typing import Any
@@ -86,6 +86,13 @@ def unregister_device(device: DeviceSpec | str) -> None:
 
 for _package in DEVICE_PACKAGES:
     register_device(import_module(f"{__name__}.{_package}").DEVICE)
+
+
+def beyond_reference(backend: str, options: Mapping[str, Any], schedule: str) -> dict[str, Any]:
+    """The ``beyond_reference`` key of a run of ``backend`` (what of it the device's
+    reference simulator does not run, :meth:`DeviceSpec.beyond_reference`), or {}."""
+    device = backend_spec(backend).device
+    return {} if device is None else device.beyond_reference(options, schedule)
 
 
 def backend_spec(name: str) -> BackendSpec:
@@ -174,6 +181,6 @@ def check_device(device: DeviceSpec | str) -> None:
 
 __all__ = ["BACKENDS", "DEVICES", "Backend", "BackendSpec", "CostModel", "DeviceContractError",
            "DeviceSpec", "Knob", "Report", "SynapticArray", "array_from_state_dict",
-           "backend_spec", "check_device", "configurations", "device_of", "make_array",
-           "register_device", "report_breakpoints", "report_sweeps", "report_systems",
+           "backend_spec", "beyond_reference", "check_device", "configurations", "device_of",
+           "make_array", "register_device", "report_breakpoints", "report_sweeps", "report_systems",
            "unregister_device"]

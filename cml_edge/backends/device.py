@@ -134,6 +134,16 @@ class Report:
     breakpoints: tuple[tuple[Entry, tuple[str, ...]], ...] = ()
 
 
+@dataclass(frozen=True)
+class Reference:
+    """The field's simulator a device follows (Lava for loihi2) and what of a run it does
+    not run: ``beyond(options, schedule)`` gives one sentence per setting of the run the
+    reference cannot express (empty: the run is one the reference runs)."""
+
+    name: str
+    beyond: Callable[[Mapping[str, Any], str], tuple[str, ...]]
+
+
 RuleFidelity = tuple[float, tuple[float, float]]
 RULE_FIDELITY: RuleFidelity = (0.8, (0.6, 1.4))
 """How closely a burst of updates must follow the local rule (the contract,
@@ -165,7 +175,9 @@ class DeviceSpec:
       of the config, or a constant): where it draws nothing, every chip seed gives the
       same chip, and ``--chips`` is refused (:mod:`cml_edge.grid.chips`);
     - ``schedule``: the learning schedule ``train`` and ``emulate`` run when ``--schedule``
-      is not given (``walk``, the paper's; loihi2: ``step``, the one Lava runs).
+      is not given (``walk``, the paper's; loihi2: ``step``, the one Lava runs);
+    - ``reference``: the simulator the device follows and what of a run it cannot run
+      (:class:`Reference`), reported in ``train`` and ``emulate`` (:meth:`beyond`).
     """
 
     array_class: type
@@ -179,6 +191,7 @@ class DeviceSpec:
     rule_fidelity: Mapping[str, RuleFidelity] = field(default_factory=dict)
     draws: bool | Callable[[Any], bool] = False
     schedule: str = "walk"
+    reference: Reference | None = None
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():
@@ -198,6 +211,16 @@ class DeviceSpec:
     @property
     def name(self) -> str:
         return self.array_class.name
+
+    def beyond_reference(self, options: Mapping[str, Any], schedule: str) -> dict[str, Any]:
+        """``{"beyond_reference": {"reference": ..., "settings": [...]}}`` for a run of
+        ``options`` on ``schedule`` (a JSON key of ``train`` and ``emulate``); {} for a
+        device that follows no reference simulator."""
+        if self.reference is None:
+            return {}
+        return {"beyond_reference": {"reference": self.reference.name,
+                                     "settings": list(self.reference.beyond(options,
+                                                                            schedule))}}
 
     @property
     def per_matrix(self) -> dict[str, tuple[str, ...]]:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
-from cml_edge.backends import BACKENDS
+from cml_edge.backends import BACKENDS, beyond_reference
 from cml_edge.cli.args import (
     Progress,
     add_backend,
@@ -26,6 +26,7 @@ from cml_edge.cli.args import (
     say_estimate,
 )
 from cml_edge.cli.output import (
+    beyond_rows,
     device_label,
     labelled,
     num,
@@ -218,7 +219,8 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
         "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
         "path": path, "wall_time_s": record["wall_time_s"],
-        "final_train_error": float(errors[-1])}
+        "final_train_error": float(errors[-1]),
+        **beyond_reference(args.backend, options, args.schedule)}
     if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
         out["counters"] = cml.counters()
     return out
@@ -375,7 +377,7 @@ def show_train(r: dict[str, Any]) -> None:
     print(f"train: seed {r['seed']}, {r['arena']} x {r['arena']} arena, {r['walks']} walks x "
           f"{r['steps']} steps ({r['explore']} exploration, {r['schedule']} schedule)")
     print("\n".join(labelled([
-        ("device", device_label(r["backend"], r.get("backend_options"))),
+        ("device", device_label(r["backend"], r.get("backend_options"))), *beyond_rows(r),
         ("model", r["model"]), ("compute path", r["compute_path"]),
         ("final training error", num(r["final_train_error"])),
         ("time", secs(r["wall_time_s"]))])))

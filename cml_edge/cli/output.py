@@ -122,6 +122,15 @@ def _overhead(r: dict[str, Any]) -> str:
            f"{num(r.get('overhead_median'))}{geodesic})"
 
 
+def beyond_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
+    """One row naming what of the run the device's reference simulator does not run
+    (``beyond_reference``), or none."""
+    beyond = r.get("beyond_reference") or {}
+    if not beyond.get("settings"):
+        return []
+    return [(f"not in {beyond['reference']}", "; ".join(beyond["settings"]))]
+
+
 def fidelity_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
     """Weight error, decision agreement and read SNR against the float64 twin
     (:mod:`cml_edge.core.fidelity`); one row saying why where there is no twin."""
@@ -191,7 +200,7 @@ def show_protocol(r: dict[str, Any], command: str = "emulate") -> None:
     if "walks" in r:
         head += f"; trained {r['walks']} walks x {r['steps']} steps ({r['explore']})"
     rows = [("device", device_label(r["backend"], r.get("backend_options"))),
-            ("success rate", _success(r)), ("path overhead", _overhead(r)),
+            *beyond_rows(r), ("success rate", _success(r)), ("path overhead", _overhead(r)),
             *fidelity_rows(r), ("saturation", saturation(r.get("counters"))),
             ("time", secs(r["wall_time_s"]) if "wall_time_s" in r else None)]
     print("\n".join([head, *labelled(rows)]))

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.backends import backend_spec
+from cml_edge.backends import backend_spec, beyond_reference
 from cml_edge.core.cml import CML, UTILITIES, CMLConfig
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import check_finite, check_weights
@@ -503,6 +503,7 @@ def run_protocol(protocol: Protocol = Protocol(),
         "per_seed": per_seed,
         "counters": counters,
         "backend_options": dict(p.backend_options),
+        **beyond_reference(p.backend, p.backend_options, p.train.schedule),
         "wall_time_s": time.perf_counter() - t0,
         **extra,
         **on_map,

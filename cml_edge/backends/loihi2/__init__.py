@@ -1,10 +1,17 @@
 """The ``loihi2`` device: Loihi 2 as Intel's Lava models it bit for bit, and export to Lava."""
 
-from cml_edge.backends.device import Backend, DeviceSpec, Report
+from cml_edge.backends.device import Backend, DeviceSpec, Reference, Report
 from cml_edge.backends.dispatch import Kernels
 from cml_edge.backends.loihi2 import kernels
 from cml_edge.backends.loihi2.array import Loihi2Array, Loihi2State
-from cml_edge.backends.loihi2.config import COST, KNOBS, PRESETS, Loihi2Config
+from cml_edge.backends.loihi2.config import (
+    COST,
+    KNOBS,
+    PRESETS,
+    REFERENCE,
+    Loihi2Config,
+    beyond_lava,
+)
 
 DEVICE = DeviceSpec(
     array_class=Loihi2Array,
@@ -21,6 +28,7 @@ DEVICE = DeviceSpec(
     draws=True,  # the write-back's stochastic rounding
     report=Report(systems=("loihi2",), breakpoints=(("loihi2", ("bits",)),)),
     schedule="step",  # the one Lava runs: the engine's rule once per epoch (t_epoch 1)
+    reference=Reference(REFERENCE, beyond_lava),
 )
 
 __all__ = ["DEVICE", "Loihi2Array", "Loihi2Config", "Loihi2State"]

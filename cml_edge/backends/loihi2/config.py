@@ -16,6 +16,7 @@ derives from its matrix (:func:`loihi2_params`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -207,6 +208,30 @@ PRESETS: dict[str, dict[str, Any]] = {}
 def make_config(**options: Any) -> Loihi2Config:
     """The config of ``options`` (field values)."""
     return resolve(Loihi2Config, PRESETS, options, "loihi2")
+
+
+REFERENCE = "Intel Lava 0.10"
+
+
+def beyond_lava(options: Mapping[str, Any], schedule: str) -> tuple[str, ...]:
+    """What of a run of ``options`` on ``schedule`` Lava does not run, one sentence each
+    (the ``beyond_reference`` of ``train`` and ``emulate``; docs/devices/loihi2.md)."""
+    config = make_config(**options)
+    beyond = []
+    if schedule == "walk":
+        beyond.append("--schedule walk: the engine's accumulator kept across a walk's steps, "
+                      "one write-back a walk (Lava applies the rule once per epoch of at "
+                      "most 63 steps)")
+    if config.draws == "independent":
+        beyond.append("--draws independent: a rounding draw per synapse (Lava draws one "
+                      "per epoch)")
+    if config.terms == "exact":
+        beyond.append("terms=exact: exact update terms, not the engine's")
+    if config.traces == "stochastic":
+        beyond.append("traces=stochastic: neurons that dither their graded spikes "
+                      "(microcode Lava's neuron models lack; the learning itself runs "
+                      "in Lava)")
+    return tuple(beyond)
 
 
 KNOBS = (

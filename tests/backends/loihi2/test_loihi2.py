@@ -815,3 +815,25 @@ def test_the_default_schedule_is_the_one_lava_runs(cli, tmp_path):
     code, out, _ = cli("train", "--backend", "loihi2", *SMALL, "--schedule", "walk", "--out",
                        tmp_path / "w.npz", "--json")
     assert code == 0 and json.loads(out)["schedule"] == "walk"
+
+
+def test_what_lava_does_not_run_is_named_in_the_json_and_the_text(cli, tmp_path):
+    from cml_edge.backends.loihi2.config import beyond_lava
+
+    assert beyond_lava({}, "step") == ()
+    named = beyond_lava({"draws": "independent", "terms": "exact", "traces": "stochastic"},
+                        "walk")
+    assert [s.split(":")[0] for s in named] == ["--schedule walk", "--draws independent",
+                                                "terms=exact", "traces=stochastic"]
+    small = ["--arena", 6, "--walks", 2, "--steps", 30]
+    code, out, _ = cli("emulate", "--backend", "loihi2", *small, "--trials", 3, "--seeds", 1,
+                       "--json")
+    assert code == 0
+    assert json.loads(out)["beyond_reference"] == {"reference": "Intel Lava 0.10",
+                                                   "settings": []}
+    code, out, _ = cli("train", "--backend", "loihi2", *small, "--schedule", "walk",
+                       "--out", tmp_path / "m.npz")
+    assert code == 0 and "not in Intel Lava 0.10  --schedule walk: the engine's" in out
+    code, out, _ = cli("emulate", "--backend", "int8", *small, "--trials", 3, "--seeds", 1,
+                       "--json")
+    assert code == 0 and "beyond_reference" not in json.loads(out)
