@@ -524,7 +524,10 @@ def test_characterize_json_keys_and_plot(cli, tmp_path):
     assert set(r["drift"][0]) == {"g_target_us", "t_s", "mean_ratio", "nu_mean", "nu_std"}
     assert sorted({d["t_s"] for d in r["drift"]}) == list(TIMES_S)
     assert set(r["read_noise"][0]) == {"g_target_us", "t_s", "std_us"}
-    assert set(r["pulses"][0]) == {"g_us", "direction", "mean_step_us", "step_std_us"}
+    assert set(r["pulses"][0]) == {"g_us", "direction", "mean_step_us", "step_std_us",
+                                   "hidden_mean_step_us", "hidden_step_std_us"}
+    # pcm has no write noise: its hidden state is what reads
+    assert all(p["hidden_mean_step_us"] == p["mean_step_us"] for p in r["pulses"])
     assert set(r["pulses_to_full_range"]) == {"up", "down"}
     assert r["pulses_to_full_range"]["down"] is None  # SET-only: no gradual RESET
     ups = [p["mean_step_us"] for p in r["pulses"] if p["direction"] == "up"]
