@@ -15,7 +15,9 @@ key for key and value for value. One rule changed since: a read SNR whose reads 
 twin's to float64 rounding is null (:data:`cml_edge.core.fidelity.READ_ROUNDING`), so the
 float64 cases' ``read_snr`` of W_k and W_v were rewritten as null; and the crossbar
 counts the pulses a commit drops (``pulses_capped``, 0 in every case here, added after
-``bm_rereads``); every other value is what the old code wrote. ``scenarios.json``:
+``bm_rereads``); and the ``pcm`` case names the pulsed physics the ``pcm`` preset had then
+(``set_noise`` lognormal, ``bound_spread`` inward, ``refresh_write`` verify), which it
+reproduces value for value; every other value is what the old code wrote. ``scenarios.json``:
 ``run_scenario`` of a grid scenario and the robot's on the tiny budget (without
 ``wall_time_s``; the DQN results file's path relative to the checkout).
 """
