@@ -177,7 +177,7 @@ class DeviceSpec:
     - ``schedule``: the learning schedule ``train`` and ``emulate`` run when ``--schedule``
       is not given (``walk``, the paper's; loihi2: ``step``, the one Lava runs);
     - ``reference``: the simulator the device follows and what of a run it cannot run
-      (:class:`Reference`), reported in ``train`` and ``emulate`` (:meth:`beyond`).
+      (:class:`Reference`), reported in ``train`` and ``emulate`` (:meth:`beyond_reference`).
     """
 
     array_class: type
