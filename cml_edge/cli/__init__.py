@@ -13,6 +13,10 @@
 - :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
 - :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
 
+Every command runs inside a recording of its stages (:mod:`cml_edge.engine.timings`): the
+long ones (:data:`TIMED`) add it to their ``--json`` object as ``timings``, and
+``--profile`` (before or after the command's name) prints its longest stages on stderr.
+
 Bad input gets one line on stderr naming the value and what is allowed, exit status
 2, no traceback, and nothing written; every output path is checked before any work.
 Every count, size and seed option has a range (:data:`~cml_edge.cli.args.SIZES`), and
@@ -36,13 +40,18 @@ from cml_edge import __version__
 from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
 from cml_edge.cli.args import hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
-from cml_edge.cli.output import show_fields
+from cml_edge.cli.output import show_fields, show_profile
 from cml_edge.core.finite import NonFiniteError, check_finite, dumps
-from cml_edge.engine import limits
+from cml_edge.engine import limits, timings
 from cml_edge.engine.stop import interrupt_behind, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export, lava)
+TIMED = ("train", "evaluate", "emulate", "sweep", "report", "scenario", "breakpoint", "robot",
+         "dqn")
+"""The commands whose ``--json`` object carries ``timings``."""
+PROFILE_HELP = "after the command, print its longest stages (wall, CPU and compile time) " \
+               "on stderr"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -58,7 +67,20 @@ def build_parser() -> argparse.ArgumentParser:
     for group in COMMAND_GROUPS:
         group.add_parsers(sub)
     limit_options(parser)
+    parser.add_argument("--profile", action="store_true", help=PROFILE_HELP)
+    _profile_option(sub)
     return parser
+
+
+def _profile_option(sub: argparse._SubParsersAction) -> None:
+    """``--profile`` after a command's name too (set only when given, so that it does not
+    hide the one given before)."""
+    for p in sub.choices.values():
+        p.add_argument("--profile", action="store_true", default=argparse.SUPPRESS,
+                       help=PROFILE_HELP)
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                _profile_option(action)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -68,9 +90,14 @@ def main(argv: list[str] | None = None) -> int:
         with stop_on_signals():
             args = parser.parse_args(argv)
             hold_estimate(limits.check(args))  # refuses what will not fit; said at the start
-            with announce_compiles(args):
+            with announce_compiles(args), timings.recording() as recorded:
                 result = args.run(args)
-            text = dumps(result) if getattr(args, "json", False) else None
+            times = recorded.to_dict()
+            text = None
+            if getattr(args, "json", False):
+                if args.command in TIMED and isinstance(result, dict):
+                    result = {**result, "timings": times}
+                text = dumps(result)
             check_finite(result)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
@@ -91,4 +118,6 @@ def main(argv: list[str] | None = None) -> int:
         print(text)
     else:
         getattr(args, "show", show_fields)(result)
+    if args.profile:
+        show_profile(times, sys.stderr)
     return 0

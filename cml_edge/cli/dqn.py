@@ -10,6 +10,7 @@ from cml_edge.baselines.dqn import evaluate_runs, train_runs
 from cml_edge.baselines.settings import DEFAULT_STEPS, EVAL_EVERY, RESULTS_PATH, DQNRun
 from cml_edge.cli.args import Progress, arena_size, command_line, nonneg_int, positive_int
 from cml_edge.cli.output import labelled, num, pct, plural, secs, table
+from cml_edge.engine.timings import stage
 from cml_edge.io.files import writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED, REWARDS
 
@@ -66,9 +67,11 @@ def cmd_dqn(args: argparse.Namespace) -> dict[str, Any]:
     seeds = range(args.seeds)
     if args.dqn_command == "train":
         writable_folder(args.models, "--models")
-        return train_runs(run, seeds, args.results, args.models, command,
-                          Progress(f"dqn train {run.name}"))
-    return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
+        with stage("train"):
+            return train_runs(run, seeds, args.results, args.models, command,
+                              Progress(f"dqn train {run.name}"))
+    with stage("evaluate"):
+        return evaluate_runs(run, seeds, args.results, command, with_cml=not args.no_cml)
 
 
 # what a person reads (--json: the result) ----------------------------------------

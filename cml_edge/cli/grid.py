@@ -40,6 +40,7 @@ from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import dumps
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.core.model_file import load_model, save_model
+from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import Evaluation, Protocol, default_path, run_protocol
@@ -208,14 +209,16 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.perf_counter()
     bar = Progress("train")
     bar(0, config.walks)
-    errors = train(cml, arena, config, args.seed, path=path,
-                   on_epoch=lambda done: bar(done, config.walks))
+    with stage("train"):
+        errors = train(cml, arena, config, args.seed, path=path,
+                       on_epoch=lambda done: bar(done, config.walks))
     record = {"arena": args.arena, "walks": args.walks, "steps": args.steps,
               "explore": args.explore, "schedule": args.schedule, "seed": args.seed,
               "path": path, "backend_options": options, "train_error": errors.tolist(),
               "wall_time_s": time.perf_counter() - t0, "cml_edge_version": __version__,
               "command": command_line()}
-    save_model(args.out, cml, record)
+    with stage("write"):
+        save_model(args.out, cml, record)
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
         "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
         "path": path, "wall_time_s": record["wall_time_s"],
@@ -238,13 +241,15 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     if grid is not None and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
-    cml, record = load_model(args.model)
+    with stage("load"):
+        cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
     say_estimate()
-    res = Evaluation(arena, pairs, budget, args.planner).plan(cml, path)
+    with stage("evaluate"):
+        res = Evaluation(arena, pairs, budget, args.planner).plan(cml, path)
     result = summarize(res.final, res.steps, pairs)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
@@ -352,7 +357,8 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
-        atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
+        with stage("write"):
+            atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
     return result
 
 

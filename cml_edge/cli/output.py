@@ -261,3 +261,23 @@ def show_fields(r: dict[str, Any]) -> None:
     print("\n".join(labelled(rows)))
     if left:
         print(f"  (--json also gives {', '.join(left)})")
+
+
+PROFILE_ROWS = 10
+"""The most stages ``--profile`` shows."""
+
+
+def show_profile(timings: dict[str, Any], file: Any) -> None:
+    """``--profile``: the stages of a command's ``timings``
+    (:mod:`cml_edge.engine.timings`) that took the most wall time, at most
+    :data:`PROFILE_ROWS`, each with its CPU and compile time and its share of the total
+    wall time, after a line of the totals."""
+    total = timings["wall_s"]
+    stages = sorted(timings["stages"], key=lambda s: -s["wall_s"])[:PROFILE_ROWS]
+    rows = [[s["name"], secs(s["wall_s"]), secs(s["cpu_s"]), secs(s["compile_s"]),
+             pct(s["wall_s"] / total if total > 0 else None)] for s in stages]
+    print(f"profile: {secs(total)} wall, {secs(timings['cpu_s'])} CPU, "
+          f"{secs(timings['compile_s'])} compiling", file=file)
+    if rows:
+        print("\n".join("  " + line for line in table(
+            rows, ["stage", "wall", "CPU", "compile", "share"])), file=file)

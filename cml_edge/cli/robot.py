@@ -31,6 +31,7 @@ from cml_edge.cli.output import (
 )
 from cml_edge.core.cml import UTILITIES, CMLConfig
 from cml_edge.core.learning import SCHEDULES
+from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.io.files import writable_file
 from cml_edge.protocol import EVAL_SEED
@@ -172,14 +173,17 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     config = RobotTrainConfig(args.walks, args.steps, args.schedule)
     sim = _make_sim(args.sim, robot, args)
     seeds = list(range(args.seed, args.seed + args.seeds))
-    cmls, record = train_models(seeds, sim, settings, config,
-                                settings.cml_config(utility=args.utility), args.backend,
-                                args.path, Progress("robot train"), options)
+    with stage("train"):
+        cmls, record = train_models(seeds, sim, settings, config,
+                                    settings.cml_config(utility=args.utility), args.backend,
+                                    args.path, Progress("robot train"), options)
     record.update({"command": command_line(),
                    "cml_edge_version": __version__})
     mujoco = asdict_options(sim) if args.sim == "mujoco" else None
-    save_robot_models(args.out, cmls, {"robot": robot.to_dict(), "settings": settings.to_dict(),
-                                       "sim": args.sim, "mujoco": mujoco, "training": record})
+    with stage("write"):
+        save_robot_models(args.out, cmls, {"robot": robot.to_dict(),
+                                           "settings": settings.to_dict(), "sim": args.sim,
+                                           "mujoco": mujoco, "training": record})
     return {"model": args.out, "sim": args.sim, "observation": settings.observation,
             "goal_heading": settings.goal_heading, "heading_scale": settings.heading_scale,
             "utility": args.utility, "backend": args.backend, "backend_options": options,
@@ -244,10 +248,12 @@ def _cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
         cmls = cmls[: args.seeds]
     goals = draw_goals(robot, args.trials, args.eval_seed)
     seeds = meta["training"].get("seeds", list(range(len(cmls))))[: len(cmls)]
-    twins, why = _twins(meta, settings, robot, cmls, seeds)
-    result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions, args.radius,
-                             args.stop, args.path, Progress(f"robot evaluate ({sim_name})"),
-                             twins)
+    with stage("twin"):
+        twins, why = _twins(meta, settings, robot, cmls, seeds)
+    with stage("evaluate"):  # with the replays against the twins
+        result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions,
+                                 args.radius, args.stop, args.path,
+                                 Progress(f"robot evaluate ({sim_name})"), twins)
     if twins is None:
         result.update({"weight_error": None, "decision_agreement": None, "read_snr": None,
                        "fidelity_twin": f"unavailable: {why}"})

@@ -19,6 +19,7 @@ from cml_edge.cli.args import (
 )
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.core.finite import dumps
+from cml_edge.engine.timings import stage
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import MIN_SEEDS, find_breakpoint, knob_names
 from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
@@ -128,7 +129,8 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
                              command_line(), args.restart,
                              on_start=_say_before_runs)
     if args.out is not None:
-        atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
+        with stage("write"):
+            atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
     return result
 
 

@@ -22,11 +22,14 @@ same there. :func:`run_sweep`:
 - stops cleanly: on Ctrl-C or SIGTERM (:mod:`cml_edge.engine.stop`) the pool's workers
   are ended before the run stops, and a worker dies with its parent, even a SIGKILLed
   one, so no process is left behind;
-- reports progress as ``progress(done, total)``.
+- reports progress as ``progress(done, total)``;
+- times its tasks (:mod:`cml_edge.engine.timings`): each task records its own stages
+  where it runs (``timings`` in its document), and this process adds them to its stage
+  ``tasks``.
 
 Tasks are deterministic functions of their arguments (every random number comes from
 a seed in them), so the pool, Dask and a rerun give the same numbers. ``wall_time_s``
-in a result is the only field that varies.
+and ``timings`` in a task's document are the only fields that vary.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from pathlib import Path
 from typing import Any
 
 from cml_edge.core.finite import dumps
+from cml_edge.engine import timings
 from cml_edge.engine.runs import checksum, open_run, plain
 from cml_edge.engine.stop import signals_held, worker_init
 from cml_edge.errors import InputError, RunError
@@ -103,14 +107,18 @@ class Task:
 
 
 def run_task(task: Task) -> tuple[str, dict[str, Any]]:
-    """Import and call the task's function; returns (key, result document)."""
+    """Import and call the task's function; returns (key, result document), the document
+    with the task's own stages (``timings``: :meth:`~cml_edge.engine.timings.Timings.to_dict`,
+    measured in the process that ran it)."""
     module, name = task.fn.split(":")
     fn = getattr(importlib.import_module(module), name)
     t0 = time.perf_counter()
-    result = fn(**task.params)
+    with timings.recording() as recorded:
+        result = fn(**task.params)
     return task.key, {"format": TASK_FORMAT, "key": task.key, "fn": task.fn,
                       "params": task.params, "result": result,
-                      "wall_time_s": time.perf_counter() - t0}
+                      "wall_time_s": time.perf_counter() - t0,
+                      "timings": recorded.to_dict()}
 
 
 def task_path(out: str | Path, key: str) -> Path:
@@ -164,6 +172,7 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     total = len(tasks)
 
     def finish(key: str, doc: dict[str, Any]) -> None:
+        timings.merge(doc.get("timings"))
         doc["checksum"] = checksum(doc, settings)
         atomic_write_text(task_path(out, key), dumps(doc, indent=1))
         results[key] = doc["result"]
@@ -173,19 +182,21 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     if progress is not None:
         progress(len(results), total)
     if todo:
-        if scheduler is not None:
-            try:
-                _run_dask(todo, scheduler, finish)
-            except _LostError as exc:
-                kept = task_path(out, "x").parent if resumable else None
-                raise SchedulerLostError(scheduler, str(exc), len(results), total, kept) from None
-        else:
-            n = workers or os.cpu_count() or 1
-            if n == 1 or len(todo) == 1:
-                for task in todo:
-                    finish(*run_task(task))
+        with timings.stage("tasks"):  # where the tasks' own stages are added (finish)
+            if scheduler is not None:
+                try:
+                    _run_dask(todo, scheduler, finish)
+                except _LostError as exc:
+                    kept = task_path(out, "x").parent if resumable else None
+                    raise SchedulerLostError(scheduler, str(exc), len(results), total,
+                                             kept) from None
             else:
-                _run_pool(todo, min(n, len(todo)), finish)
+                n = workers or os.cpu_count() or 1
+                if n == 1 or len(todo) == 1:
+                    for task in todo:
+                        finish(*run_task(task))
+                else:
+                    _run_pool(todo, min(n, len(todo)), finish)
     return {k: results[k] for k in keys}
 
 

@@ -27,6 +27,7 @@ import numpy as np
 from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.engine.sweep import Task, run_sweep
+from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
@@ -204,8 +205,10 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
     summary = {"experiment": module.NAME, "claim": module.CLAIM, "tasks": len(tasks),
                "seeds": options.get("seeds", DEFAULT_SEEDS), "options": options,
                "rows": rows}
-    atomic_write_text(out / "results.json", dumps(summary, indent=1))
-    write_csv(out / "results.csv", rows)
-    module.plot(rows, results, out / "figure.png")
+    with stage("write"):
+        atomic_write_text(out / "results.json", dumps(summary, indent=1))
+        write_csv(out / "results.csv", rows)
+    with stage("figures"):
+        module.plot(rows, results, out / "figure.png")
     summary["out"] = str(out)
     return summary

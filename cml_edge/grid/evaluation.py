@@ -47,6 +47,7 @@ from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import check_finite, check_weights
 from cml_edge.core.learning import schedule_defers
 from cml_edge.core.records import Record
+from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
@@ -167,7 +168,8 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
 
     def point(walks: int) -> None:
         if curve is not None:
-            r = curve.plan(cml, path)
+            with stage("curve"):
+                r = curve.plan(cml, path)
             points.append({"walks": walks, **summarize(r.final, r.steps, curve.pairs)})
 
     if curve_at_start:
@@ -183,8 +185,9 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
             on_epoch(walks)
         clock[0], clock[1] = time.perf_counter(), time.process_time()
 
-    errors = train(cml, training.arena, training.config, seed, path=path,
-                   epoch=training.epoch, on_epoch=epoch_done)
+    with stage("train"):  # the curve's plans are its stage "curve"
+        errors = train(cml, training.arena, training.config, seed, path=path,
+                       epoch=training.epoch, on_epoch=epoch_done)
     counters = cml.counters()
     return SeedRun(int(seed), cml, path, errors, points, [], [], counters, dict(counters), wall,
                    cpu)
@@ -196,13 +199,14 @@ def evaluate_seed(run: SeedRun, evaluations: Sequence[Evaluation], idle_s: float
     :func:`train_and_evaluate`). Weights the idle time made NaN or infinite raise
     :class:`~cml_edge.core.finite.NonFiniteError` (a failed run)."""
     cml = run.cml
-    for arr in cml.arrays:  # time between programming and use (drift, retention)
-        arr.elapse(idle_s)
-    check_weights(cml, "drift", run.seed)
-    for ev in evaluations:
-        r = ev.plan(cml, run.path)
-        run.results.append(r)
-        run.summaries.append(summarize(r.final, r.steps, ev.pairs))
+    with stage("evaluate"):
+        for arr in cml.arrays:  # time between programming and use (drift, retention)
+            arr.elapse(idle_s)
+        check_weights(cml, "drift", run.seed)
+        for ev in evaluations:
+            r = ev.plan(cml, run.path)
+            run.results.append(r)
+            run.summaries.append(summarize(r.final, r.steps, ev.pairs))
     run.counters = cml.counters()
 
 

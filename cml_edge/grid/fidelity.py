@@ -32,6 +32,7 @@ from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.fidelity import read_snr, sample_indices, weight_error
 from cml_edge.core.learning import schedule_defers
 from cml_edge.core.step import FactoredScorer, prepare, scores
+from cml_edge.engine.timings import stage
 from cml_edge.grid.arena import MOVES, GridArena, available_moves
 from cml_edge.grid.escape import Escape
 from cml_edge.grid.planning import (
@@ -50,10 +51,11 @@ def float_twin(seed: int, arena: GridArena, config: TrainConfig, cml_config: CML
                first_walk: int = 0, twin: CML | None = None) -> CML:
     """The float64 twin of the model of ``seed`` (module docstring), trained on ``arena``;
     with ``twin``, that CML trained further, on walks ``first_walk`` onward."""
-    if twin is None:
-        twin = CML.create(cml_config, "float", seed)
-    path = "factored" if schedule_defers(config.schedule) else "direct"
-    train(twin, arena, config, seed, path=path, epoch=config.walks, first_walk=first_walk)
+    with stage("twin"):
+        if twin is None:
+            twin = CML.create(cml_config, "float", seed)
+        path = "factored" if schedule_defers(config.schedule) else "direct"
+        train(twin, arena, config, seed, path=path, epoch=config.walks, first_walk=first_walk)
     return twin
 
 
@@ -115,8 +117,9 @@ def plan_states(cml: CML, goals: np.ndarray, result: PlanResult, seed: int
 def seed_fidelity(seed: int, cml: CML, twin: CML, arena: GridArena, goals: np.ndarray,
                   result: PlanResult, planner: str, max_steps: int) -> dict[str, Any]:
     """One seed's weight error, decision agreement and read SNR (and the decision counts)."""
-    same, total = decision_agreement(twin, arena, goals, result, planner, max_steps)
-    return {"weight_error": weight_error(cml, twin),
-            "decision_agreement": same / total if total else None,
-            "decisions": total, "decisions_agreed": same,
-            "read_snr": read_snr(cml, plan_states(cml, goals, result, seed))}
+    with stage("replay"):
+        same, total = decision_agreement(twin, arena, goals, result, planner, max_steps)
+        return {"weight_error": weight_error(cml, twin),
+                "decision_agreement": same / total if total else None,
+                "decisions": total, "decisions_agreed": same,
+                "read_snr": read_snr(cml, plan_states(cml, goals, result, seed))}

@@ -35,6 +35,7 @@ from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
+from cml_edge.engine.timings import stage
 from cml_edge.errors import RunError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
@@ -199,18 +200,21 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     prof = _profile(quick)
     systems = [s for s in (report_systems() if systems is None else systems) if s[1] in BACKENDS]
     sweeps = [s for s in (report_sweeps() if sweeps is None else sweeps) if s[2] in BACKENDS]
-    rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
-            for label, backend, opts in systems]
+    with stage("systems"):
+        rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
+                for label, backend, opts in systems]
     dqn, dqn_data = dqn_rows(Path(dqn_results))
     sweep_rows = []
     for figure, label, backend, opts in sweeps:
         progress(f"sweep {label}")
-        r = run_protocol(Protocol(backend, range(prof["sweep_seeds"]), prof["trials"],
-                                  backend_options=opts))
+        with stage("sweeps"):
+            r = run_protocol(Protocol(backend, range(prof["sweep_seeds"]), prof["trials"],
+                                      backend_options=opts))
         sweep_rows.append({"figure": figure, "label": label, "backend": backend,
                            "options": opts, **{k: r[k] for k in (
                                "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})
-    card = build_scorecard(scorecard or ScorecardPlan.of(quick), progress)
+    with stage("scorecard"):
+        card = build_scorecard(scorecard or ScorecardPlan.of(quick), progress)
     return {
         "schema_version": SCHEMA_VERSION,
         "title": "cml-edge hardware-budget report",
@@ -264,9 +268,11 @@ def write_report(report: dict[str, Any], out: str | Path) -> Path:
     except OSError as exc:
         raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror})") from None
     try:
-        figures = render_figures(report, tmp)
-        (tmp / "report.json").write_text(dumps(report, indent=1, sort_keys=True))
-        (tmp / "report.md").write_text(render_markdown(report, figures))
+        with stage("figures"):
+            figures = render_figures(report, tmp)
+        with stage("write"):
+            (tmp / "report.json").write_text(dumps(report, indent=1, sort_keys=True))
+            (tmp / "report.md").write_text(render_markdown(report, figures))
         if out.exists():
             old = out.with_name(f".{out.name}.old")
             shutil.rmtree(old, ignore_errors=True)

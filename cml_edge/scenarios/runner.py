@@ -44,6 +44,7 @@ from cml_edge.core.fidelity import TWIN, pool_seeds, seed_stats
 from cml_edge.core.finite import dumps
 from cml_edge.core.world import World, get_world
 from cml_edge.engine.sweep import Task, run_sweep
+from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips, pool_chips
 from cml_edge.io.files import atomic_write_text
@@ -203,6 +204,7 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     result.update({"wall_time_s": time.perf_counter() - t0, "command": command,
                    "cml_edge_version": __version__})
     if out is not None:
-        atomic_write_text(Path(out) / "results.json", dumps(result, indent=1))
+        with stage("write"):
+            atomic_write_text(Path(out) / "results.json", dumps(result, indent=1))
         result["out"] = str(out)
     return result

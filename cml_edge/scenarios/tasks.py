@@ -29,6 +29,7 @@ from cml_edge.core.cml import CML
 from cml_edge.core.finite import check_weights
 from cml_edge.core.world import PATH, get_world
 from cml_edge.costs.ledger import cost_model, energy_pj, technology
+from cml_edge.engine.timings import stage
 
 TASK_FN = "cml_edge.scenarios.tasks:scenario_task"
 WRITE_COUNTERS = ("devices_written", "cells_changed")
@@ -55,9 +56,11 @@ def scenario_task(world: str, seed: int, backend: str, backend_options: dict[str
     as ``run`` says and measure each of ``parts`` (module docstring); ``chip``: on the
     chip of that chip seed (None: of the model seed)."""
     w = get_world(world)
-    cml, train_error = w.train(seed, run, backend, backend_options, chip)
+    with stage("train"):
+        cml, train_error = w.train(seed, run, backend, backend_options, chip)
     train_counters = cml.counters()
-    twin = w.twin(seed, run)
+    with stage("twin"):
+        twin = w.twin(seed, run)
     out = []
     # age -> (relearning model, its twin, walks relearnt, the counters before relearning)
     by_age: dict[float, tuple[CML, CML, int, dict[str, int]]] = {}
@@ -72,13 +75,16 @@ def scenario_task(world: str, seed: int, backend: str, backend_options: dict[str
         model, model_twin, done, base = by_age[age]
         record: dict[str, Any] = {}
         if k > done:
-            w.relearn(model, model_twin, seed, run, k - done, done)
+            with stage("relearn"):
+                w.relearn(model, model_twin, seed, run, k - done, done)
             by_age[age] = (model, model_twin, k, base)
         if k > 0:  # all K walks, from the aged model
             record["relearn"] = relearn_cost(model, base, model.counters())
         evaluated = copy.deepcopy(model)  # the part's reads leave the shared model as it is
-        planned = w.plan(evaluated, part, run)
-        out.append({**w.summarise(seed, evaluated, model_twin, part, planned), **record})
+        with stage("evaluate"):
+            planned = w.plan(evaluated, part, run)
+        with stage("replay"):  # the part's record: its fidelity replays the plans
+            out.append({**w.summarise(seed, evaluated, model_twin, part, planned), **record})
     order = {p["name"]: i for i, p in enumerate(parts)}
     out.sort(key=lambda r: order[r["name"]])
     return {"seed": int(seed), "backend": backend, "path": PATH,

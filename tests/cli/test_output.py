@@ -21,7 +21,7 @@ RUN = ["--seeds", 1, "--trials", 5, "--walks", 5, "--steps", 100]
 ROOT = Path(__file__).resolve().parents[2]
 
 # The keys of `cml-edge emulate --json`, as the command printed them before its table
-# was written: the table changes no key.
+# was written (the table changes no key), and its stages' times (`timings`).
 EMULATE_KEYS = {
     "arena", "backend", "backend_options", "cml_edge_version", "command", "compute_path",
     "connected_pairs", "counters", "curve_e_pos_mean", "decision_agreement", "e_pos_mean",
@@ -29,7 +29,7 @@ EMULATE_KEYS = {
     "idle_s", "max_steps", "obstacles", "overhead_geodesic_mean", "overhead_mean",
     "overhead_median", "path", "per_seed", "planner", "read_snr", "schedule", "seed_list",
     "seeds", "steps", "success_rate", "success_rate_connected", "train_error", "trials",
-    "utility", "walks", "wall_time_s", "weight_error"}
+    "utility", "walks", "wall_time_s", "weight_error", "timings"}
 PER_SEED_KEYS = {
     "seed", "trials", "success_rate", "e_pos_mean", "e_pos_median", "overhead_mean",
     "overhead_median", "connected_pairs", "success_rate_connected", "overhead_geodesic_mean",
