@@ -108,7 +108,7 @@ def _pulse_train(p, bl, key, ctr):
 
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _move(g, up, s, z, P):
     """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
     (step_model ``bounds``, the model of earlier releases)."""
@@ -126,7 +126,7 @@ def _move(g, up, s, z, P):
     return min(max(g, g_min), g_max)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def weight_zero(lo, hi, P):
     """G0, the conductance of a device's weight zero: lo + step_center (hi - lo) of its own
     bounds (``bound_spread`` inward), or the nominal g_min + step_center (g_max - g_min)
@@ -136,7 +136,7 @@ def weight_zero(lo, hi, P):
     return lo + P.step_center * (hi - lo)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def step_factor(g, up, lo, hi, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
@@ -171,7 +171,7 @@ def step_factor(g, up, lo, hi, P):
     return max(f, 0.0)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _move_model(g, up, s, z, lo, hi, P):
     """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
     (module docstring), clipped to its bounds [lo, hi]."""
@@ -341,7 +341,7 @@ def _refresh_sweep(state, key, ctr):
     return ctr
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
