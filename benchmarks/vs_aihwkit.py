@@ -18,9 +18,10 @@ the API wraps. One process and one thread each (torch and aihwkit's OpenMP set t
 microseconds of process CPU time per step, the median of ``repeats`` runs of ``steps`` steps
 after a warm-up.
 
-Pairs: ``float`` against aihwkit's floating-point tile, ``crossbar:pcm`` against the lone
-``PCMPresetDevice`` and the ``PCMPresetUnitCell`` (the SET-only pair with refresh the
-preset models), ``crossbar:reram`` against ``ReRamSBPresetDevice``.
+Pairs: ``float`` against aihwkit's floating-point tile, ``crossbar:pcm`` with ``refresh=false``
+against the lone ``PCMPresetDevice`` (which has no refresh), ``crossbar:pcm`` (its open-loop
+refresh) against the ``PCMPresetUnitCell`` (the SET-only pair with refresh the preset
+models), ``crossbar:reram`` against ``ReRamSBPresetDevice``.
 
 Run from the repository root (so that ``cml_edge`` is this checkout's).
 """
@@ -37,12 +38,14 @@ from numba import njit
 
 from cml_edge.backends.crossbar.aihwkit import runner
 from cml_edge.backends.dispatch import sa_matvec, sa_outer_update, sa_rmatvec
-from cml_edge.bench.timing import parse_name
+from cml_edge.bench.timing import label, parse_name
 from cml_edge.core.cml import CML, CMLConfig
 
 LR = 0.01
-PAIRS = (("float", "float"), ("crossbar:pcm", "PCMPresetDevice"),
-         ("crossbar:pcm", "PCMPresetUnitCell"), ("crossbar:reram", "ReRamSBPresetDevice"))
+PAIRS = (("float", (), "float"), ("crossbar:pcm", ("refresh=false",), "PCMPresetDevice"),
+         ("crossbar:pcm", (), "PCMPresetUnitCell"),
+         ("crossbar:reram", (), "ReRamSBPresetDevice"))
+"""(the project's backend, its ``--set`` settings, aihwkit's device)"""
 
 
 @njit
@@ -77,9 +80,11 @@ def vectors() -> tuple[list[np.ndarray], list[np.ndarray]]:
     return xs, ds
 
 
-def project(name: str, steps: int, repeats: int) -> dict[str, float]:
-    """Microseconds per training and planning step of the project's backend ``name``."""
-    backend, options = parse_name(name)
+def project(name: str, steps: int, repeats: int,
+            settings: tuple[str, ...] = ()) -> dict[str, float]:
+    """Microseconds per training and planning step of the project's backend ``name`` with
+    ``settings`` (``field=value`` texts)."""
+    backend, options = parse_name(name, settings)
     xs, ds = vectors()
     outs = [np.zeros(256), np.zeros(8), np.zeros(256)]
     tr = [np.zeros(2), np.zeros(256), np.zeros(8)]
@@ -97,10 +102,10 @@ def project(name: str, steps: int, repeats: int) -> dict[str, float]:
     return figures
 
 
-def pulse_weights(name: str) -> list[float] | None:
+def pulse_weights(name: str, settings: tuple[str, ...] = ()) -> list[float] | None:
     """The weight the project's controller counts one pulse as, per array (W_q, W_k, W_v;
     None: a float array, no pulses)."""
-    backend, options = parse_name(name)
+    backend, options = parse_name(name, settings)
     states = [a.state for a in CML.create(CMLConfig.for_arena(30), backend, 0,
                                           **options).arrays]
     if not hasattr(getattr(states[0], "params", None), "dw_min"):
@@ -131,14 +136,15 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     runner.require()
-    dw_min = {name: pulse_weights(name) for name in dict(PAIRS)}
-    ours = {name: project(name, args.steps, args.repeats) for name in dict(PAIRS)}
+    ours = {(name, settings): (pulse_weights(name, settings),
+                                project(name, args.steps, args.repeats, settings))
+            for name, settings, _ in PAIRS}
     rows = []
-    for name, device in PAIRS:
-        a = theirs(device, dw_min[name], max(args.steps // 10, 10), args.repeats)
-        p = ours[name]
-        rows.append({"project": name, "aihwkit": device, **{f"project_{k}": v for k, v in
-                                                            p.items()},
+    for name, settings, device in PAIRS:
+        dw_min, p = ours[name, settings]
+        a = theirs(device, dw_min, max(args.steps // 10, 10), args.repeats)
+        rows.append({"project": label(name, settings), "aihwkit": device,
+                     **{f"project_{k}": v for k, v in p.items()},
                      **{f"aihwkit_{k}": v for k, v in a.items()},
                      **{f"{s}_x_{api}": a[f"{s}_{api}_us"] / p[f"{s}_us"]
                         for s in ("train", "plan") for api in ("public", "bare")}})
@@ -146,10 +152,10 @@ def main() -> None:
         print(json.dumps(rows, indent=1))
         return
     print("us per step (process CPU, 1 thread); x: aihwkit's time / the project's")
-    print(f"{'project':16} {'aihwkit':22} {'train':>8} {'public':>9} {'x':>6} {'bare':>9} "
+    print(f"{'project':30} {'aihwkit':22} {'train':>8} {'public':>9} {'x':>6} {'bare':>9} "
           f"{'x':>6} {'plan':>8} {'public':>9} {'x':>6} {'bare':>9} {'x':>6}")
     for r in rows:
-        print(f"{r['project']:16} {r['aihwkit']:22} {r['project_train_us']:8.2f} "
+        print(f"{r['project']:30} {r['aihwkit']:22} {r['project_train_us']:8.2f} "
               f"{r['aihwkit_train_public_us']:9.1f} {r['train_x_public']:6.1f} "
               f"{r['aihwkit_train_bare_us']:9.1f} {r['train_x_bare']:6.1f} "
               f"{r['project_plan_us']:8.2f} {r['aihwkit_plan_public_us']:9.1f} "

@@ -94,8 +94,8 @@ def normal_at(key, ctr):
     (z, the counter after the words it consumed)."""
     i, x, negative = candidate(word(key, ctr))
     ctr += _ONE
-    if x < ZIG_X[i + 1]:
-        return (-x if negative else x), ctr
+    if x < ZIG_X[i + 1]:  # the sign without a branch (a random branch mispredicts)
+        return math.copysign(x, 0.5 - negative), ctr
     return normal_slow(key, ctr, i, x, negative)
 
 

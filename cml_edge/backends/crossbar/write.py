@@ -90,7 +90,7 @@ _ONE = np.uint64(1)
 
 
 # pulses --------------------------------------------------------------------------------
-@kernel
+@njit(cache=True, inline="always")
 def _pulse_train(p, bl, key, ctr):
     """A stochastic pulse train of ``bl`` slots, each fired with probability min(p, 1).
 
@@ -100,15 +100,14 @@ def _pulse_train(p, bl, key, ctr):
     b = 0
     if p != 0.0:
         p = min(p, 1.0)
-        for t in range(bl):
-            if uniform(key, ctr) < p:
-                b |= 1 << t
-            ctr += _ONE
+        for t in range(bl):  # branch-free: a slot fires at random, so a branch mispredicts
+            b |= np.int64(uniform(key, ctr + np.uint64(t)) < p) << t
+        ctr += np.uint64(bl)
     return b, ctr
 
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _move(g, up, s, z, P):
     """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
     (step_model ``bounds``, the model of earlier releases)."""
@@ -126,7 +125,7 @@ def _move(g, up, s, z, P):
     return min(max(g, g_min), g_max)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def weight_zero(lo, hi, P):
     """G0, the conductance of a device's weight zero: lo + step_center (hi - lo) of its own
     bounds (``bound_spread`` inward), or the nominal g_min + step_center (g_max - g_min)
@@ -136,7 +135,7 @@ def weight_zero(lo, hi, P):
     return lo + P.step_center * (hi - lo)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def step_factor(g, up, lo, hi, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
@@ -171,7 +170,7 @@ def step_factor(g, up, lo, hi, P):
     return max(f, 0.0)
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _move_model(g, up, s, z, lo, hi, P):
     """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
     (module docstring), clipped to its bounds [lo, hi]."""
@@ -218,6 +217,23 @@ def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
         wn[d, i, j] = G - h
         return G
     return h
+
+
+@njit(cache=True, inline="always")
+def _pulse_device_n(P, step, wn, bnd, G, live, d, i, j, up, n, key, ctr):
+    """Device d of pair (i, j), at G, after n pulses (up or down); per pulse the c2c
+    normal (if ``dw_min_std``) then the write-noise normal (if ``write_noise``), drawn
+    whether or not the device is ``live`` (not stuck). Returns (G, the counter)."""
+    for _ in range(n):
+        z = 0.0
+        w = 0.0
+        if P.dw_min_std != 0.0:
+            z, ctr = normal_at(key, ctr)
+        if P.write_noise > 0.0:
+            w, ctr = normal_at(key, ctr)
+        if live:
+            G = _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w)
+    return G, ctr
 
 
 
@@ -293,8 +309,6 @@ def _refresh_sweep(state, key, ctr):
     sd = P.refresh_read_noise * rng
     near_up = P.g_min + P.refresh_upper * rng - REFRESH_READ_SIGMAS * sd
     near_lo = P.g_min + P.refresh_lower * rng - REFRESH_READ_SIGMAS * sd
-    noisy = P.dw_min_std != 0.0
-    wnoisy = P.write_noise > 0.0
     for i in range(rows):
         for j in range(cols):
             if not (max(Gp[i, j], Gm[i, j]) > near_up and min(Gp[i, j], Gm[i, j]) > near_lo):
@@ -321,19 +335,13 @@ def _refresh_sweep(state, key, ctr):
             a, ctr = _pulse_train(p, bl, key, ctr)
             b, ctr = _pulse_train(p, bl, key, ctr)
             n = popcount(a & b)
-            for _ in range(n):
-                z = 0.0
-                w = 0.0
-                if noisy:
-                    z, ctr = normal_at(key, ctr)
-                if wnoisy:
-                    w, ctr = normal_at(key, ctr)
-                if stuck[big, i, j] != OK:
-                    continue
-                if big == 0:
-                    Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, True, z, w)
-                else:
-                    Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, True, z, w)
+            live = stuck[big, i, j] == OK
+            if big == 0:
+                Gp[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j], live, 0, i, j,
+                                                True, n, key, ctr)
+            else:
+                Gm[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gm[i, j], live, 1, i, j,
+                                                True, n, key, ctr)
             mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
             mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
             c[REFRESHES] += 1
@@ -341,7 +349,7 @@ def _refresh_sweep(state, key, ctr):
     return ctr
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
@@ -349,45 +357,39 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
     G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
     then the write-noise normal (if ``write_noise``); a refresh then draws its
     programming noise."""
-    noisy = P.dw_min_std != 0.0
-    if P.step_model == STEP_BOUNDS and not P.set_only and P.write_noise == 0.0:
-        # the pulse loop of earlier releases, draw for draw
+    if P.set_only:  # one device, up: G+ to raise w, G- to lower it
+        if positive:
+            Gp[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j], stuck[0, i, j] == OK,
+                                            0, i, j, True, n, key, ctr)
+            mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+        else:
+            Gm[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gm[i, j], stuck[1, i, j] == OK,
+                                            1, i, j, True, n, key, ctr)
+            mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+    else:
+        noisy = P.dw_min_std != 0.0
+        wnoisy = P.write_noise > 0.0
+        live_p = stuck[0, i, j] == OK
+        live_m = stuck[1, i, j] == OK
         for _ in range(n):
-            for d in range(2):
-                up = positive if d == 0 else not positive
-                z = 0.0
-                if noisy:
-                    z, ctr = normal_at(key, ctr)
-                if stuck[d, i, j] != OK:
-                    continue
-                s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
-                if d == 0:
-                    Gp[i, j] = _move(Gp[i, j], up, s, z, P)
-                else:
-                    Gm[i, j] = _move(Gm[i, j], up, s, z, P)
+            # both devices' draws first, then both moves: the same draws in the same order,
+            # and the two devices' independent arithmetic can overlap
+            zp = wp = zm = wm = 0.0
+            if noisy:
+                zp, ctr = normal_at(key, ctr)
+            if wnoisy:
+                wp, ctr = normal_at(key, ctr)
+            if noisy:
+                zm, ctr = normal_at(key, ctr)
+            if wnoisy:
+                wm, ctr = normal_at(key, ctr)
+            if live_p:
+                Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, positive, zp, wp)
+            if live_m:
+                Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, not positive,
+                                         zm, wm)
         mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
         mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
-    else:
-        wnoisy = P.write_noise > 0.0
-        first = 0 if (positive or not P.set_only) else 1
-        last = 1 if (not positive or not P.set_only) else 0
-        for _ in range(n):
-            for d in range(first, last + 1):
-                up = True if P.set_only else (positive if d == 0 else not positive)
-                z = 0.0
-                w = 0.0
-                if noisy:
-                    z, ctr = normal_at(key, ctr)
-                if wnoisy:
-                    w, ctr = normal_at(key, ctr)
-                if stuck[d, i, j] != OK:
-                    continue
-                if d == 0:
-                    Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, up, z, w)
-                else:
-                    Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, up, z, w)
-        for d in range(first, last + 1):
-            mark_written(age, rn, nu, nu_z, P, d, i, j, Gp[i, j] if d == 0 else Gm[i, j])
     if P.refresh != 0 and P.refresh_write != REFRESH_OPEN:
         ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
                             ctr)
