@@ -13,9 +13,11 @@ end), so nothing is resumed.
 
 Each run is checked against the reference: its JSON and every chip's task file, minus
 what depends on the run (:data:`RUN_DEPENDENT`: wall times, timings, the output folder, the
-command line and the task files' checksums), must be equal. The table gives, per run, the wall time of the command
-(the cluster already started, but its workers' first task loads the compiled kernels) and
-the chips per minute it makes (chips / wall time).
+command line and the task files' checksums), must be equal. The table gives, per run, the
+wall time of the command (the cluster already started, but its workers' first task loads
+the compiled kernels, a few seconds) and the chips per minute it makes (chips / wall time).
+A chip costs about 0.33 s of one free core (training 90,000 steps), so the default 100
+chips take a few minutes in all on 2 cores.
 
 Run from the repository root, with this checkout's ``cml_edge`` importable (it is when
 installed from here; else ``PYTHONPATH=$PWD``); the Dask workers inherit it.
