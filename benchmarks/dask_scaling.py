@@ -17,7 +17,8 @@ command line and the task files' checksums), must be equal. The table gives, per
 wall time of the command (the cluster already started, but its workers' first task loads
 the compiled kernels, a few seconds) and the chips per minute it makes (chips / wall time).
 A chip costs about 0.33 s of one free core (training 90,000 steps), so the default 100
-chips take a few minutes in all on 2 cores.
+chips take about 2 minutes in all on 2 free cores (9 under the load of the figures in
+benchmarks/README.md).
 
 Run from the repository root, with this checkout's ``cml_edge`` importable (it is when
 installed from here; else ``PYTHONPATH=$PWD``); the Dask workers inherit it.
