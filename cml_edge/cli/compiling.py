@@ -26,8 +26,10 @@ from cml_edge.cli.args import say_estimate
 COLD_MINUTES = "1-3"
 """Rough minutes a command's kernels take to compile on a cold cache: ``emulate`` on the
 crossbar (its kernels, the training and planning loops, the float64 twin and the
-replay) took about 75 s on an idle two-core machine and 2.7 min of CPU time on one
-shared by a dozen processes. ``bench`` compiles every backend's: :data:`BENCH_MINUTES`."""
+replay) took about 75 s on an idle two-core machine when it also compiled the update
+its schedule does not run; without it, a fifth less: 2.3 min of CPU time instead of 2.9
+on two cores under a load of 3-5 (benchmarks/README.md, "First run: compile time").
+``bench`` compiles every backend's: :data:`BENCH_MINUTES`."""
 BENCH_MINUTES = "5-10"
 
 

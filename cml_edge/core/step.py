@@ -125,11 +125,29 @@ class SeamLearner(NamedTuple):
 
     @classmethod
     def of(cls, cml: Any, defer: bool) -> SeamLearner:
+        """The learner of ``cml``'s arrays: a :class:`WalkSeamLearner` (``defer``) or a
+        :class:`StepSeamLearner`."""
         c = cml.config
         q, k, v = (arr.state for arr in cml.arrays)
         buf = (*(np.zeros(c.n_s) for _ in range(5)), *(np.zeros(c.n_a) for _ in range(4)),
                np.zeros(c.n_i))
-        return cls(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), buf)
+        kind = WalkSeamLearner if defer else StepSeamLearner
+        return kind(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), buf)
+
+
+class WalkSeamLearner(SeamLearner):
+    """A :class:`SeamLearner` of the per-walk schedule (``defer`` True), and
+    :class:`StepSeamLearner` of the per-step one: the schedule is the type, so a loop
+    compiled for one passes it to the seam as a constant and Numba compiles only the
+    update that schedule runs (:func:`cml_edge.jit.routing.routed`)."""
+
+    __slots__ = ()
+
+
+class StepSeamLearner(SeamLearner):
+    """A :class:`SeamLearner` of the per-step schedule (``defer`` False)."""
+
+    __slots__ = ()
 
 
 @njit(cache=True, inline="always")
@@ -160,11 +178,16 @@ def seam_learn(q, k, v, o_t, o_1, a, lr_q, lr_k, lr_v, defer, buf):
     return math.sqrt(sq)
 
 
-# (the plug-ins pass their fields on as arguments, read once per step)
+# (the plug-ins pass their fields on as arguments, read once per step; the schedule is
+# the learner's type)
 @njit(cache=True, inline="always")
-def _seam_learn(lr, o_t, o_1, a):
-    return seam_learn(lr.q, lr.k, lr.v, o_t, o_1, a, lr.lr_q, lr.lr_k, lr.lr_v, lr.defer,
-                      lr.buf)
+def _walk_learn(lr, o_t, o_1, a):
+    return seam_learn(lr.q, lr.k, lr.v, o_t, o_1, a, lr.lr_q, lr.lr_k, lr.lr_v, True, lr.buf)
+
+
+@njit(cache=True, inline="always")
+def _step_learn(lr, o_t, o_1, a):
+    return seam_learn(lr.q, lr.k, lr.v, o_t, o_1, a, lr.lr_q, lr.lr_k, lr.lr_v, False, lr.buf)
 
 
 @njit(cache=True, inline="always")
@@ -173,11 +196,15 @@ def _seam_begin_walk(lr):
 
 
 @njit(cache=True, inline="always")
-def _seam_end_walk(lr):
-    if lr.defer:
-        sa_commit(lr.q)
-        sa_commit(lr.k)
-        sa_commit(lr.v)
+def _walk_end_walk(lr):
+    sa_commit(lr.q)
+    sa_commit(lr.k)
+    sa_commit(lr.v)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _step_end_walk(lr):
     return 0.0
 
 
@@ -254,12 +281,22 @@ class FactoredScorer(NamedTuple):
                    np.ones(c.n_a))
 
 
+@njit(cache=True, inline="always")
+def copy_matrix(dst, src):
+    """dst = src, element by element: ``dst[:] = src`` would also compile Numba's message
+    for mismatched shapes (seconds of a first run) for a check that cannot fail here."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
 @allocates  # (matrix products)
 def _factored_prepare(sc, normalize, gram):
-    sc.R[:] = sc.Wv.T @ sc.Wq
-    sc.M[:] = sc.Wk @ sc.Wq
+    copy_matrix(sc.R, sc.Wv.T @ sc.Wq)
+    copy_matrix(sc.M, sc.Wk @ sc.Wq)
     norms_and_gram(np.ascontiguousarray(sc.Wv.T), normalize, gram, sc.norms, sc.gram)
-    sc.inv[:] = 1.0 / sc.norms
+    for a in range(sc.inv.shape[0]):
+        sc.inv[a] = 1.0 / sc.norms[a]
 
 
 @njit(cache=True, inline="always")
@@ -280,9 +317,11 @@ def _factored_scores(sc, o, dgo, u, score):
     factored_scores(sc.R, sc.M, sc.inv, o, dgo, u, score)
 
 
-begin_walk.register(SeamLearner, _seam_begin_walk)
-learn.register(SeamLearner, _seam_learn)
-end_walk.register(SeamLearner, _seam_end_walk)
+for _kind, _learn, _end_walk in ((WalkSeamLearner, _walk_learn, _walk_end_walk),
+                                  (StepSeamLearner, _step_learn, _step_end_walk)):
+    begin_walk.register(_kind, _seam_begin_walk)
+    learn.register(_kind, _learn)
+    end_walk.register(_kind, _end_walk)
 prepare.register(SeamScorer, _seam_prepare)
 scores.register(SeamScorer, _seam_scores)
 prepare.register(FactoredScorer, _factored_prepare)

@@ -42,7 +42,7 @@ from numba import njit
 from cml_edge.core.cml import CML
 from cml_edge.core.finite import check_weights
 from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defers
-from cml_edge.core.step import SeamLearner, begin_walk, end_walk, learn
+from cml_edge.core.step import SeamLearner, begin_walk, copy_matrix, end_walk, learn
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import MOVES, GridArena, observe
@@ -200,7 +200,7 @@ def factored_begin_walk(fl):
     Wq = fl.Wq
     Wv = fl.Wv
     scale = fl.frame[1]
-    fl.M[:] = fl.Wk @ Wq
+    copy_matrix(fl.M, fl.Wk @ Wq)
     for a in range(fl.err_a.shape[0]):
         sq = 0.0
         for r in range(Wq.shape[0]):

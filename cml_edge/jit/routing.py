@@ -12,6 +12,12 @@ readable reference paths, the MuJoCo simulator).
 Why not pass the implementations to the loop as arguments: Numba cannot cache a
 function that takes dispatchers as arguments, so every process would compile the loops
 again; overloads keyed by type are resolved at typing time and cache normally.
+
+A routed function called with a constant ``True`` or ``False`` (a literal bool while Numba
+types the caller) passes the constant on to the implementation, which Numba inlines with
+it: a branch on it is then pruned before the rest is typed, so nothing the untaken side
+calls is compiled (the crossbar's in-place pulsed update, in a loop that only ever
+accumulates). The value is the same, so is every result.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
+from numba.core.types import BooleanLiteral, Literal
 from numba.extending import overload
 
 
@@ -45,19 +52,25 @@ def routed(stub: Callable[..., Any]) -> Callable[..., Any]:
         registry[cls] = impl
         return impl
 
-    def forward(impl: Callable[..., Any]) -> Callable[..., Any]:
-        # the implementation Numba inlines must have the stub's own parameter names
+    def forward(impl: Callable[..., Any], types: tuple[Any, ...]) -> Callable[..., Any]:
+        # the implementation Numba inlines must have the stub's own parameter names; a
+        # literal bool is passed on as the constant itself (module docstring)
+        passed = ", ".join(repr(t.literal_value) if isinstance(t, BooleanLiteral) else p
+                           for p, t in zip(params, types))
         scope = {"impl": impl}
-        exec(f"def {name}({arglist}):\n    return impl({arglist})\n", scope)
+        exec(f"def {name}({arglist}):\n    return impl({passed})\n", scope)
         return scope[name]
 
     def typer(*types: Any) -> Callable[..., Any] | None:
         impl = registry.get(getattr(types[0], "instance_class", None))
-        return None if impl is None else forward(impl)
+        if impl is None or any(isinstance(t, Literal) and not isinstance(t, BooleanLiteral)
+                               for t in types):
+            return None  # (another literal: Numba types the call again without literals)
+        return forward(impl, types)
 
     scope = {"typer": typer}
     exec(f"def {name}_typer({arglist}):\n    return typer({arglist})\n", scope)
-    overload(call, inline="always")(scope[f"{name}_typer"])
+    overload(call, inline="always", prefer_literal=True)(scope[f"{name}_typer"])
     call.register = register  # type: ignore[attr-defined]
     call.implementations = registry  # type: ignore[attr-defined]
     return call
