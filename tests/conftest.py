@@ -4,6 +4,10 @@ the README's test command run) runs everything."""
 
 from __future__ import annotations
 
+import importlib.util
+import sys
+from pathlib import Path
+
 import pytest
 
 from cml_edge.core.cml import CMLConfig
@@ -24,6 +28,25 @@ def small_config() -> CMLConfig:
 @pytest.fixture
 def short_training() -> TrainConfig:
     return TrainConfig(walks=4, steps=60)
+
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def script():
+    """A script of the checkout loaded as a module: ``script("docs/check_figures.py")``
+    (registered in ``sys.modules`` under its file's stem, for its dataclasses)."""
+
+    def load(relative: str):
+        path = ROOT / relative
+        spec = importlib.util.spec_from_file_location(path.stem, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules.setdefault(path.stem, module)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
 
 
 @pytest.fixture

@@ -3,7 +3,6 @@ wording, and figure markers that parse, name valid commands and can fail."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import re
 import shlex
@@ -22,13 +21,6 @@ CHECKER = ROOT / "docs" / "check_figures.py"
 WORDING = re.compile(r"\bissues? #?\d+|\bworktrees?\b|\bthis branch\b|\bsessions?\b", re.I)
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)")
 
-
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_figures", CHECKER)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("check_figures", module)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _slug(heading: str) -> str:
@@ -73,8 +65,8 @@ def test_every_relative_link_resolves():
     assert not broken, "\n".join(broken)
 
 
-def test_every_figure_marker_parses_and_names_a_valid_command():
-    checker = _checker()
+def test_every_figure_marker_parses_and_names_a_valid_command(script):
+    checker = script("docs/check_figures.py")
     figures = [f for page in PAGES for f in checker.parse_page(page)]
     seeded = [f for f in figures if f.kind == "figure"]
     assert len(seeded) >= 50  # the docs' seeded figures carry markers
@@ -92,9 +84,9 @@ def test_every_figure_marker_parses_and_names_a_valid_command():
             assert group and text.strip(), fig.where
 
 
-def test_figures_read_from_committed_results_match():
+def test_figures_read_from_committed_results_match(script):
     """The figures whose command wrote a committed results file agree with that file."""
-    checker = _checker()
+    checker = script("docs/check_figures.py")
     figures = [f for page in PAGES for f in checker.parse_page(page)
                if f.kind == "figure" and f.file]
     assert figures

@@ -3,7 +3,6 @@ tour whose every command runs as written, in order, from any folder."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import re
 import shlex
@@ -20,14 +19,6 @@ ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 EXTRA = re.compile(r"\(extra: (\w+)\)")
 
-
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_figures",
-                                                  ROOT / "docs" / "check_figures.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("check_figures", module)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _setup_commands() -> list[str]:
@@ -111,8 +102,8 @@ def test_main_job_parses_and_runs_at_small_scale(capsys):
     assert '"success_rate"' in capsys.readouterr().out
 
 
-def test_tour_commands_parse_and_name_their_extra():
-    checker = _checker()
+def test_tour_commands_parse_and_name_their_extra(script):
+    checker = script("docs/check_figures.py")
     for line in tour():
         argv = _split(line)
         assert argv[0] == "cml-edge", line
@@ -132,11 +123,11 @@ def tour_folder(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("line", tour(), ids=[f"{i:02d}-{'-'.join(_split(line)[1:3])}"
                                               for i, line in enumerate(tour(), 1)])
-def test_tour_command_runs_verbatim(line, tour_folder):
+def test_tour_command_runs_verbatim(line, tour_folder, script):
     """Each tour command, in order, from a folder outside the repository, with the
     checkout's package; a command of an optional extra is skipped where it is not
     installed."""
-    checker = _checker()
+    checker = script("docs/check_figures.py")
     argv = _split(line)
     extra = checker.extra_of(argv)
     if extra and not checker.extra_installed(extra):

@@ -1,34 +1,24 @@
 """benchmarks/dask_scaling.py: the chips on a LocalCluster of 1 and 2 worker processes give
 the pool's results, its JSON and every chip's task file."""
 
-import importlib.util
-import sys
-from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "dask_scaling.py"
+SCRIPT = "benchmarks/dask_scaling.py"
 TINY = ["--walks", "2", "--steps", "50", "--trials", "5"]
 
 
-def _script():
-    spec = importlib.util.spec_from_file_location("dask_scaling", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("dask_scaling", module)
-    spec.loader.exec_module(module)
-    return module
 
-
-def test_run_dependent_keys_are_left_out_at_any_depth():
-    script = _script()
+def test_run_dependent_keys_are_left_out_at_any_depth(script):
+    dask_scaling = script(SCRIPT)
     doc = {"wall_time_s": 1.0, "out": "x", "a": [{"timings": {}, "timings.walk": 2, "b": 3}]}
-    assert script.comparable(doc) == {"a": [{"b": 3}]}
+    assert dask_scaling.comparable(doc) == {"a": [{"b": 3}]}
 
 
 @pytest.mark.slow
-def test_dask_workers_give_the_pools_results(tmp_path):
+def test_dask_workers_give_the_pools_results(tmp_path, script):
     pytest.importorskip("distributed")
-    rows = _script().measure(3, [1, 2], tmp_path, TINY)
+    rows = script(SCRIPT).measure(3, [1, 2], tmp_path, TINY)
     assert [(r["run"], r["workers"], r["chips"]) for r in rows] == [
         ("pool", 2, 3), ("dask", 1, 3), ("dask", 2, 3)]
     assert all(r["identical"] for r in rows), rows
