@@ -120,7 +120,6 @@ class SeamLearner(NamedTuple):
     lr_q: float
     lr_k: float
     lr_v: float
-    defer: bool  # the per-walk schedule: accumulate, commit at the walk's end
     buf: tuple  # work vectors: s, ds, va, e, -e (n_s); z, g, a - g, a (n_a); o_1 - o_t (n_i)
 
     @classmethod
@@ -132,20 +131,20 @@ class SeamLearner(NamedTuple):
         buf = (*(np.zeros(c.n_s) for _ in range(5)), *(np.zeros(c.n_a) for _ in range(4)),
                np.zeros(c.n_i))
         kind = WalkSeamLearner if defer else StepSeamLearner
-        return kind(q, k, v, c.lr_q, c.lr_k, c.lr_v, bool(defer), buf)
+        return kind(q, k, v, c.lr_q, c.lr_k, c.lr_v, buf)
 
 
 class WalkSeamLearner(SeamLearner):
-    """A :class:`SeamLearner` of the per-walk schedule (``defer`` True), and
-    :class:`StepSeamLearner` of the per-step one: the schedule is the type, so a loop
-    compiled for one passes it to the seam as a constant and Numba compiles only the
-    update that schedule runs (:func:`cml_edge.jit.routing.routed`)."""
+    """A :class:`SeamLearner` of the per-walk schedule (accumulate, commit at the walk's
+    end), and :class:`StepSeamLearner` of the per-step one: the schedule is the type (no
+    field holds it), so a loop compiled for one passes it to the seam as a constant and
+    Numba compiles only the update that schedule runs (:func:`cml_edge.jit.routing.routed`)."""
 
     __slots__ = ()
 
 
 class StepSeamLearner(SeamLearner):
-    """A :class:`SeamLearner` of the per-step schedule (``defer`` False)."""
+    """A :class:`SeamLearner` of the per-step schedule (each update applied at once)."""
 
     __slots__ = ()
 
