@@ -14,6 +14,7 @@ compiles and nothing is printed.
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -36,7 +37,7 @@ BENCH_MINUTES = "5-10"
 def what_compiles(args: argparse.Namespace) -> tuple[str, str]:
     """(what the command of ``args`` compiles, in words; the minutes it takes)."""
     backend = getattr(args, "backend", None)
-    if args.command == "bench":
+    if args.command in ("bench", "report"):
         return "every backend's kernels and loops", BENCH_MINUTES
     if args.command == "device":
         return f"the {backend} kernels", COLD_MINUTES
@@ -47,18 +48,24 @@ def what_compiles(args: argparse.Namespace) -> tuple[str, str]:
 
 
 class _Notice(event.Listener):
-    """Prints the line at the first compile of a cml_edge function, and nothing after."""
+    """Prints the line at the first compile of a cml_edge function, and nothing after; in
+    the command's process or in any worker process forked from it (the flag is in shared
+    memory), so a pool of workers says it once."""
 
     def __init__(self, what: str, minutes: str) -> None:
-        self.what, self.minutes, self.said = what, minutes, False
+        self.what, self.minutes = what, minutes
+        self.said = multiprocessing.Value("b", 0)
 
     def on_start(self, ev: event.Event) -> None:
-        if self.said:
+        if self.said.value:
             return
         func = getattr(ev.data["dispatcher"], "py_func", None)
         if not getattr(func, "__module__", "").startswith("cml_edge."):
             return
-        self.said = True
+        with self.said.get_lock():
+            if self.said.value:
+                return
+            self.said.value = 1
         say_estimate()
         tqdm.write(f"cml-edge: first run: compiling {self.what} ({self.minutes} min once, "
                    "then cached)", file=sys.stderr)

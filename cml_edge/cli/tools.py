@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -53,6 +54,13 @@ def add_parsers(sub) -> None:
     p.add_argument("--dqn-results", default=None, metavar="FILE",
                    help="DQN baseline results written by 'cml-edge dqn' (default: the "
                         "repository's hw_reports/baselines/dqn_results.json)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run on this Dask distributed scheduler (e.g. tcp://host:8786; needs "
+                        "the distributed extra)")
+    p.add_argument("--restart", action="store_true",
+                   help="start over a report interrupted in --out (it resumes without)")
     p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
     p.set_defaults(run=cmd_report)
 
@@ -78,25 +86,52 @@ def add_parsers(sub) -> None:
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.baselines import load_results
     from cml_edge.baselines.settings import RESULTS_PATH
+    from cml_edge.engine.sweep import check_scheduler
     from cml_edge.report import build_report, write_report
-
-    def progress(message: str) -> None:
-        if sys.stderr.isatty():
-            print(f"report: {message}", file=sys.stderr, flush=True)
 
     if args.dqn_results is not None and not Path(args.dqn_results).is_file():
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
     writable_folder(args.out, "--out")
     writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
     say_estimate()
     report = build_report(quick=args.quick, command=command_line(),
-                          progress=progress, dqn_results=args.dqn_results or RESULTS_PATH)
+                          progress=StageProgress("report"),
+                          dqn_results=args.dqn_results or RESULTS_PATH, folder=args.out,
+                          workers=args.workers, scheduler=args.scheduler,
+                          restart=args.restart)
     folder = write_report(report, args.out)
     if args.json:
         return report
     return {"report": str(folder / "report.md"), "systems": len(report["systems"]),
             "wall_time_s": report["wall_time_s"]}
+
+
+class StageProgress:
+    """Progress of a command's stages ``(stage, done, total)`` on any stderr: a bar per
+    stage on a terminal (:class:`~cml_edge.cli.args.Progress`); elsewhere (a log, a CI
+    job) a line when a stage starts, at every tenth of it and when it ends, with the
+    minutes since the command started."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.bars: dict[str, Progress] = {}
+        self.said: dict[str, int] = {}
+        self.t0 = time.perf_counter()
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if sys.stderr.isatty():
+            self.bars.setdefault(stage, Progress(f"{self.label}: {stage}"))(done, total)
+            return
+        tenth = 10 * done // max(total, 1)
+        if self.said.get(stage) == tenth:
+            return
+        self.said[stage] = tenth
+        minutes = (time.perf_counter() - self.t0) / 60
+        print(f"{self.label}: {stage}: {done}/{total} tasks ({minutes:.1f} min)",
+              file=sys.stderr, flush=True)
 
 
 def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:

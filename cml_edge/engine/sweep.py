@@ -42,7 +42,7 @@ import os
 import re
 import time
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -145,19 +145,20 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
               scheduler: str | None = None,
               progress: Callable[[int, int], None] | None = None,
               resumable: bool = True, settings: dict[str, Any] | None = None,
-              restart: bool = False) -> dict[str, dict[str, Any]]:
+              restart: bool = False, pool: Workers | None = None,
+              group: Callable[[Task], Any] | None = None) -> dict[str, dict[str, Any]]:
     """Run every task not yet done under ``out``; returns {key: result} for all tasks.
     ``resumable`` False: ``out`` is a temporary folder (what a lost scheduler's line says).
     With ``settings``, ``out`` is a run folder of those settings (``restart``: start it
-    over; :func:`cml_edge.engine.runs.open_run`)."""
-    if scheduler is not None:
-        check_scheduler(scheduler)
+    over; :func:`cml_edge.engine.runs.open_run`). ``pool``: the :class:`Workers` to run
+    on, kept by the caller for several sweeps (``workers`` and ``scheduler`` are then
+    its); ``group``: :meth:`Workers.run`'s."""
     tasks = list(tasks)
     keys = [t.key for t in tasks]
     if len(set(keys)) != len(keys):
         raise InputError("task keys are not unique")
-    if workers is not None and workers < 1:
-        raise InputError(f"workers {workers!r} is not an integer >= 1")
+    own = pool is None
+    workers_ = Workers(workers, scheduler) if pool is None else pool
     if settings is not None:
         open_run(out, settings, tasks, restart)
     settings = plain(settings)
@@ -183,39 +184,104 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
         progress(len(results), total)
     if todo:
         with timings.stage("tasks"):  # where the tasks' own stages are added (finish)
-            if scheduler is not None:
-                try:
-                    _run_dask(todo, scheduler, finish)
-                except _LostError as exc:
-                    kept = task_path(out, "x").parent if resumable else None
-                    raise SchedulerLostError(scheduler, str(exc), len(results), total,
-                                             kept) from None
-            else:
-                n = workers or os.cpu_count() or 1
-                if n == 1 or len(todo) == 1:
-                    for task in todo:
-                        finish(*run_task(task))
-                else:
-                    _run_pool(todo, min(n, len(todo)), finish)
+            try:
+                workers_.run(todo, finish, group)
+            except _LostError as exc:
+                kept = task_path(out, "x").parent if resumable else None
+                raise SchedulerLostError(workers_.scheduler or "", str(exc), len(results),
+                                         total, kept) from None
+            finally:
+                if own:
+                    workers_.close()
     return {k: results[k] for k in keys}
 
 
-def _run_pool(todo: list[Task], workers: int,
-              finish: Callable[[str, dict[str, Any]], None]) -> None:
-    """The tasks on a local process pool whose workers die with this process
-    (:func:`~cml_edge.engine.stop.worker_init`); on any exception (a stop request too)
-    every worker is ended before it propagates."""
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
-                               initargs=(os.getpid(),))
-    try:
-        with signals_held():  # the workers are forked here (module stop)
-            futures = [pool.submit(run_task, task) for task in todo]
-        for fut in as_completed(futures):
-            finish(*fut.result())
-    except BaseException:
-        end_pool(pool)
-        raise
-    pool.shutdown()
+class Workers:
+    """Where tasks run, kept for as many sweeps as its ``with`` block lasts: this process
+    (``workers=1``), a local process pool (``workers`` > 1, default one per core; started
+    by the first sweep that needs it, so its workers keep what they compiled or loaded
+    from Numba's cache from one sweep to the next) or a Dask cluster (``scheduler``, an
+    address; :func:`check_scheduler`). A block left by an exception (a stop request too)
+    ends the pool's workers first."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+        if scheduler is not None:
+            check_scheduler(scheduler)
+        if workers is not None and (isinstance(workers, bool) or workers < 1):
+            raise InputError(f"workers {workers!r} is not an integer >= 1")
+        self.n = workers or os.cpu_count() or 1
+        self.scheduler = scheduler
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> Workers:
+        return self
+
+    def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
+        self.close(failed=kind is not None)
+
+    def close(self, failed: bool = False) -> None:
+        """Shut the local pool down (``failed``: end its workers now, :func:`end_pool`)."""
+        if self._pool is not None:
+            if failed:
+                end_pool(self._pool)
+            else:
+                self._pool.shutdown()
+            self._pool = None
+
+    def run(self, todo: list[Task], finish: Callable[[str, dict[str, Any]], None],
+            group: Callable[[Task], Any] | None = None) -> None:
+        """Run ``todo``, calling ``finish(key, document)`` here as each task ends. A lone
+        task runs in this process unless a pool is up already. ``group(task)``: the
+        tasks of one group compile the same kernels, so on a local pool only each group's
+        first task is queued at first (the groups' first tasks spread over the workers,
+        each compiling its own group's kernels) and the rest of a group once its first
+        has ended; None (or no ``group``) queues a task at once."""
+        if self.scheduler is not None:
+            _run_dask(todo, self.scheduler, finish)
+        elif self.n == 1 or (len(todo) == 1 and self._pool is None):
+            for task in todo:
+                finish(*run_task(task))
+        else:
+            try:
+                self._run_pool(todo, finish, group)
+            except BaseException:
+                self.close(failed=True)
+                raise
+
+    def _run_pool(self, todo: list[Task], finish: Callable[[str, dict[str, Any]], None],
+                  group: Callable[[Task], Any] | None) -> None:
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(max_workers=self.n, initializer=worker_init,
+                                             initargs=(os.getpid(),))
+        pool = self._pool
+        futures: dict[Future, Task] = {}
+        held: dict[Any, list[Task]] = {}  # group -> its tasks waiting for its first
+        firsts: dict[str, Any] = {}  # the key of each group's first task -> its group
+
+        def submit(batch: list[Task]) -> None:
+            with signals_held():  # the workers are forked here (module stop)
+                for task in batch:
+                    futures[pool.submit(run_task, task)] = task
+
+        now = []
+        for task in todo:
+            g = None if group is None else group(task)
+            if g is None:
+                now.append(task)
+            elif g in held:
+                held[g].append(task)
+            else:
+                held[g] = []
+                firsts[task.key] = g
+                now.append(task)
+        submit(now)
+        while futures:
+            done, _ = wait(futures, return_when=FIRST_COMPLETED)
+            for fut in done:
+                task = futures.pop(fut)
+                finish(*fut.result())
+                if task.key in firsts:
+                    submit(held.pop(firsts[task.key]))
 
 
 def end_pool(pool: ProcessPoolExecutor) -> None:

@@ -425,10 +425,67 @@ class Protocol(Record):
         return Evaluation(*eval_setting(spec, self.arena_size), self.planner)
 
 
+def protocol_seed(p: Protocol, seed: int,
+                  on_epoch: Callable[[int], None] | None = None) -> dict[str, Any]:
+    """One model seed of :func:`run_protocol`, as JSON (what :func:`pool_protocol` pools):
+    the evaluation's per-trial ``final`` and ``steps``, the seed's ``summary`` (with its
+    fidelity record), the ``curve`` (e_pos every ``epoch`` walks), the ``train_error``
+    and the arrays' ``counters``, and ``wall_s``, the seconds it took. ``on_epoch``:
+    :func:`train_seed`'s."""
+    t0 = time.perf_counter()
+    training = p.training()
+    arena = training.arena
+    evaluation = p.evaluation()
+    curve = Evaluation(arena, draw_pairs(arena, p.trials, p.eval_seed))
+    run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=p.idle_s,
+                             on_epoch=on_epoch)
+    (res,), (summary,) = run.results, run.summaries
+    record = {"seed": int(seed), "final": res.final.tolist(), "steps": res.steps.tolist(),
+              "summary": {"seed": int(seed), **summary},
+              "curve": [point["e_pos_mean"] for point in run.curve],
+              "train_error": run.train_error.tolist(), "counters": run.counters,
+              "fidelity": None}
+    if p.fidelity:
+        (record["fidelity"],) = run_fidelity(run, training, [evaluation])
+        record["summary"].update(record["fidelity"])
+    record["wall_s"] = time.perf_counter() - t0
+    return record
+
+
+def protocol_task(protocol: dict[str, Any], seed: int) -> dict[str, Any]:
+    """:func:`protocol_seed` as a sweep task (:mod:`cml_edge.engine.sweep`): ``protocol``
+    is :meth:`Protocol.to_dict`."""
+    return protocol_seed(Protocol.from_dict(protocol), seed)
+
+
+PROTOCOL_TASK = "cml_edge.grid.evaluation:protocol_task"
+
+
 def run_protocol(protocol: Protocol = Protocol(),
                  progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
-    """Train and evaluate one model per seed of ``protocol``; the JSON-ready result of
-    ``emulate``.
+    """Train and evaluate one model per seed of ``protocol`` (:func:`protocol_seed`) and
+    pool them (:func:`pool_protocol`): the JSON-ready result of ``emulate``.
+    ``progress(done, total)`` counts units of work over all seeds: each seed's training
+    epochs (one every ``epoch`` walks), then its evaluation (with the fidelity); it is
+    called with 0 first, then after each unit."""
+    p = protocol
+    units = -(-p.train.walks // p.epoch) + 1  # per seed: its epochs, its evaluation
+    total = units * len(p.seeds)
+    tick = progress or (lambda done, total: None)
+    tick(0, total)
+    t0 = time.perf_counter()
+    records = []
+    for n, seed in enumerate(p.seeds):
+        records.append(protocol_seed(p, seed, on_epoch=lambda walks, n=n: tick(
+            n * units + -(-walks // p.epoch), total)))
+        tick((n + 1) * units, total)
+    return pool_protocol(p, records, time.perf_counter() - t0)
+
+
+def pool_protocol(protocol: Protocol, records: Sequence[Mapping[str, Any]],
+                  wall_time_s: float) -> dict[str, Any]:
+    """The result of ``protocol`` from its seeds' records (:func:`protocol_seed`, in seed
+    order).
 
     Every model is trained on the empty arena of ``arena_size``, planning the training
     arena's pairs every ``epoch`` walks (the curve), and evaluated once on
@@ -438,55 +495,31 @@ def run_protocol(protocol: Protocol = Protocol(),
     also measured against its float64 twin (:func:`run_fidelity`): the keys
     ``weight_error``, ``decision_agreement`` and ``read_snr`` (seed means and spreads; per
     seed in ``per_seed``) are added, and no other number changes. On a map, ``map`` and
-    ``scen`` close the result. ``progress(done, total)`` counts units of work over all
-    seeds: each seed's training epochs (one every ``epoch`` walks), then its evaluation
-    (with the fidelity); it is called with 0 first, then after each unit. A NaN or an
-    infinity in the weights after training or drift, or in the metrics, raises
-    :class:`~cml_edge.core.finite.NonFiniteError` (a failed run).
+    ``scen`` close the result. A NaN or an infinity in the weights after training or
+    drift, or in the metrics, raises :class:`~cml_edge.core.finite.NonFiniteError` (a
+    failed run).
     """
     p = protocol
-    training = p.training()
-    path = training.path
-    train_arena = training.arena
+    path = p.training().path
     evaluation = p.evaluation()
-    curve = Evaluation(train_arena, draw_pairs(train_arena, p.trials, p.eval_seed))
     pairs = evaluation.pairs
-    trials = len(pairs.starts)
-    seeds = p.seeds
-    finals, steps, per_seed, curves, train_errors, fids = [], [], [], [], [], []
     counters: dict[str, int] = {}
-    units = -(-p.train.walks // p.epoch) + 1  # per seed: its epochs, its evaluation
-    total = units * len(seeds)
-    tick = progress or (lambda done, total: None)
-    tick(0, total)
-    t0 = time.perf_counter()
-    for n, seed in enumerate(seeds):
-        run = train_and_evaluate(seed, training, [evaluation], curve=curve, idle_s=p.idle_s,
-                                 on_epoch=lambda walks, n=n: tick(n * units + -(-walks // p.epoch),
-                                                                  total))
-        (res,), (summary,) = run.results, run.summaries
-        finals.append(res.final)
-        steps.append(res.steps)
-        per_seed.append({"seed": int(seed), **summary})
-        if p.fidelity:
-            (fid,) = run_fidelity(run, training, [evaluation])
-            fids.append(fid)
-            per_seed[-1].update(fid)
-        curves.append([point["e_pos_mean"] for point in run.curve])
-        train_errors.append(run.train_error.tolist())
-        for k, v in run.counters.items():
+    for r in records:
+        for k, v in r["counters"].items():
             counters[k] = counters.get(k, 0) + v
-        tick((n + 1) * units, total)
-    pooled = summarize(np.concatenate(finals), np.concatenate(steps),
-                       pool_pairs(pairs, len(seeds)))
-    extra = {**pool_seeds(fids), "fidelity_twin": TWIN} if p.fidelity else {}
+    pooled = summarize(np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2)
+                                       for r in records]),
+                       np.concatenate([np.asarray(r["steps"], np.int64) for r in records]),
+                       pool_pairs(pairs, len(records)))
+    extra = {**pool_seeds([r["fidelity"] for r in records]), "fidelity_twin": TWIN} \
+        if p.fidelity else {}
     on_map = {"map": p.map, "scen": p.scen} if p.map is not None else {}
     result = {
         "backend": p.backend,
-        "seeds": len(seeds),
-        "seed_list": [int(s) for s in seeds],
+        "seeds": len(records),
+        "seed_list": [int(r["seed"]) for r in records],
         **pooled,
-        "trials": int(trials),
+        "trials": int(len(pairs.starts)),
         "arena": int(p.arena_size),
         "eval_arena": int(evaluation.arena.size),
         "obstacles": int(p.obstacles),
@@ -502,13 +535,13 @@ def run_protocol(protocol: Protocol = Protocol(),
         "path": path,
         "epoch_walks": p.epoch,
         "idle_s": float(p.idle_s),
-        "curve_e_pos_mean": np.mean(curves, axis=0).tolist(),
-        "train_error": np.mean(train_errors, axis=0).tolist(),
-        "per_seed": per_seed,
+        "curve_e_pos_mean": np.mean([r["curve"] for r in records], axis=0).tolist(),
+        "train_error": np.mean([r["train_error"] for r in records], axis=0).tolist(),
+        "per_seed": [dict(r["summary"]) for r in records],
         "counters": counters,
         "backend_options": dict(p.backend_options),
         **beyond_reference(p.backend, p.backend_options, p.train.schedule),
-        "wall_time_s": time.perf_counter() - t0,
+        "wall_time_s": wall_time_s,
         **extra,
         **on_map,
     }

@@ -35,20 +35,23 @@ from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
+from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
 from cml_edge.errors import RunError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
+    PROTOCOL_TASK,
     Evaluation,
     Protocol,
     Training,
     default_path,
-    run_protocol,
+    pool_protocol,
     train_and_evaluate,
 )
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.training import TrainConfig
 from cml_edge.protocol import EVAL_SEED
+from cml_edge.report.batch import Batch
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
 
 SCHEMA_VERSION = 2
@@ -62,7 +65,8 @@ def _profile(quick: bool) -> dict[str, int]:
 
 def measure_operations(backend: str, options: dict[str, Any], explore: str = "random",
                        trials: int = 100) -> dict[str, Any]:
-    """One model trained and planned operation by operation: counters per phase."""
+    """One model trained and planned operation by operation: counters per phase, priced
+    by the device's cost model (a sweep task: JSON in, JSON out)."""
     arena = GridArena.empty(30)
     config = TrainConfig(explore=explore)
     training = Training(arena, config, CMLConfig.for_arena(30), backend, options,
@@ -72,27 +76,50 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
     cml, (res,) = run.cml, run.results
     steps = int(res.steps.sum())
     examples = [res.paths[i, : res.steps[i] + 1].tolist() for i in range(N_EXAMPLES)]
+    model = ledger.cost_model(cml)
+    e_train, e_sources = ledger.energy_pj(model, run.train_counters)
+    e_plan, _ = ledger.energy_pj(model, run.eval_counters)
     return {"example_paths": examples, "train_counters": run.train_counters,
             "plan_counters": run.eval_counters,
             "train_steps": config.walks * config.steps, "plan_steps": steps,
-            "train_wall_s": run.wall_s[-1], "cost_model": ledger.cost_model(cml),
+            "train_wall_s": run.wall_s[-1], "energy_train_pj": e_train,
+            "energy_plan_pj": e_plan, "energy_sources": e_sources,
+            "counted_macs": ledger.counted_macs(model, run.eval_counters),
             "memory": ledger.cml_memory(cml, explore, 30),
             "factored": ledger.cml_factored_traffic(cml, config.walks, config.steps),
             "parameters": cml.parameter_count(),
             "inference_flops_formula": cml.inference_flops()}
 
 
-def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trials: int,
-            progress: Callable[[str], None]) -> dict[str, Any]:
-    """Accuracy on the protocol and the ledger of one CML system."""
-    progress(f"{label}: protocol")
-    acc = run_protocol(Protocol(backend, range(seeds), trials, epoch=1,
-                                backend_options=options))
-    progress(f"{label}: operations")
-    ops = measure_operations(backend, options)
-    model = ops["cost_model"]
-    e_train, e_sources = ledger.energy_pj(model, ops["train_counters"])
-    e_plan, _ = ledger.energy_pj(model, ops["plan_counters"])
+OPERATIONS_TASK = "cml_edge.report.build:measure_operations"
+
+
+def system_protocol(backend: str, options: dict[str, Any], seeds: int, trials: int) -> Protocol:
+    """The protocol a system of the report is scored on: the paper's, a curve point every
+    walk."""
+    return Protocol(backend, range(seeds), trials, epoch=1, backend_options=options)
+
+
+def protocol_tasks(prefix: str, protocol: Protocol) -> list[Task]:
+    """One task per seed of ``protocol`` (:func:`cml_edge.grid.evaluation.protocol_task`)."""
+    spec = protocol.to_dict()
+    return [Task(f"{prefix}-s{seed}", PROTOCOL_TASK, {"protocol": spec, "seed": seed})
+            for seed in protocol.seeds]
+
+
+def protocol_result(prefix: str, protocol: Protocol,
+                    results: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """:func:`~cml_edge.grid.evaluation.pool_protocol` of the tasks of
+    :func:`protocol_tasks`; its ``wall_time_s`` is the seeds' own, summed."""
+    records = [results[t.key] for t in protocol_tasks(prefix, protocol)]
+    return pool_protocol(protocol, records, sum(r["wall_s"] for r in records))
+
+
+def cml_row(label: str, backend: str, options: dict[str, Any], acc: dict[str, Any],
+            ops: dict[str, Any]) -> dict[str, Any]:
+    """Accuracy on the protocol (``acc``, :func:`protocol_result`) and the ledger
+    (``ops``, :func:`measure_operations`) of one CML system."""
+    e_train, e_plan = ops["energy_train_pj"], ops["energy_plan_pj"]
     tc = ops["train_counters"]
     return {
         "label": label, "backend": backend, "options": options, "kind": "cml",
@@ -102,8 +129,7 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
         "epoch_steps": acc["epoch_walks"] * acc["steps"],
         "parameters": ops["parameters"],
         "inference_flops_formula": ops["inference_flops_formula"],
-        "inference_flops_counted": counted_flops(
-            ledger.counted_macs(model, ops["plan_counters"]), ops["plan_steps"]),
+        "inference_flops_counted": counted_flops(ops["counted_macs"], ops["plan_steps"]),
         **ops["memory"],
         "train_steps": ops["train_steps"],
         "update_bytes_per_run_direct": tc.get("bytes_read", 0) + tc.get("bytes_written", 0),
@@ -115,7 +141,7 @@ def cml_row(label: str, backend: str, options: dict[str, Any], seeds: int, trial
         "coincidences_per_run": tc.get("coincidences"),
         "energy_per_run_uj": None if e_train is None else e_train / 1e6,
         "energy_per_action_nj": None if e_plan is None else e_plan / ops["plan_steps"] / 1e3,
-        "energy_sources": e_sources,
+        "energy_sources": ops["energy_sources"],
         "train_wall_s": ops["train_wall_s"],
         "protocol_wall_s": acc["wall_time_s"],
         "train_counters": tc,
@@ -187,34 +213,55 @@ def dqn_rows(path: Path = RESULTS_PATH) -> tuple[list[dict[str, Any]], dict[str,
 
 
 def build_report(quick: bool = False, command: str = "cml-edge report",
-                 progress: Callable[[str], None] = lambda m: None,
+                 progress: Callable[[str, int, int], None] | None = None,
                  systems: list[tuple[str, str, dict[str, Any]]] | None = None,
                  sweeps: list[tuple[str, str, str, dict[str, Any]]] | None = None,
                  dqn_results: str | Path = RESULTS_PATH,
-                 scorecard: ScorecardPlan | None = None) -> dict[str, Any]:
+                 scorecard: ScorecardPlan | None = None, folder: str | Path | None = None,
+                 workers: int | None = None, scheduler: str | None = None,
+                 restart: bool = False) -> dict[str, Any]:
     """Everything the report shows, as one JSON-ready dict; the DQN's accuracy and times
     come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist.
     ``scorecard``: what the scorecard runs (default :meth:`ScorecardPlan.of` ``quick``;
-    :mod:`cml_edge.report.scorecard`)."""
+    :mod:`cml_edge.report.scorecard`).
+
+    Every model is a task of one :class:`~cml_edge.report.batch.Batch` on ``workers``
+    processes (default: the scorecard plan's, else one per core) or the Dask
+    ``scheduler``, kept in run folder ``folder`` as it ends (None: a temporary folder), so
+    a report run again into the same folder resumes (``restart``: starts it over). The
+    stages: the systems' protocol seeds and operation counts, the precision sweeps and
+    the scorecard's models in one batch, then the break points' bisections in lockstep.
+    ``progress(stage, done, total)`` counts each stage's tasks."""
     t0 = time.perf_counter()
     prof = _profile(quick)
     systems = [s for s in (report_systems() if systems is None else systems) if s[1] in BACKENDS]
     sweeps = [s for s in (report_sweeps() if sweeps is None else sweeps) if s[2] in BACKENDS]
-    with stage("systems"):
-        rows = [cml_row(label, backend, opts, prof["seeds"], prof["trials"], progress)
-                for label, backend, opts in systems]
+    plan = scorecard or ScorecardPlan.of(quick)
+    settings = {"run": "report", "quick": quick, "systems": systems, "sweeps": sweeps}
+    sys_protocols = [(f"system-{label}", system_protocol(backend, opts, prof["seeds"],
+                                                         prof["trials"]))
+                     for label, backend, opts in systems]
+    sweep_protocols = [(f"sweep-{label}", Protocol(backend, range(prof["sweep_seeds"]),
+                                                   prof["trials"], backend_options=opts))
+                       for _, label, backend, opts in sweeps]
+    ops_tasks = [Task(f"operations-{label}", OPERATIONS_TASK,
+                      {"backend": backend, "options": opts})
+                 for label, backend, opts in systems]
+    with Batch(workers or plan.workers, scheduler, folder, settings, progress,
+               restart) as batch:
+        done = batch.run("systems", [t for prefix, p in sys_protocols + sweep_protocols
+                                     for t in protocol_tasks(prefix, p)] + ops_tasks)
+        card = build_scorecard(plan, batch)
+    rows = [cml_row(label, backend, opts, protocol_result(prefix, p, done),
+                    done[f"operations-{label}"])
+            for (label, backend, opts), (prefix, p) in zip(systems, sys_protocols)]
     dqn, dqn_data = dqn_rows(Path(dqn_results))
     sweep_rows = []
-    for figure, label, backend, opts in sweeps:
-        progress(f"sweep {label}")
-        with stage("sweeps"):
-            r = run_protocol(Protocol(backend, range(prof["sweep_seeds"]), prof["trials"],
-                                      backend_options=opts))
+    for (figure, label, backend, opts), (prefix, p) in zip(sweeps, sweep_protocols):
+        r = protocol_result(prefix, p, done)
         sweep_rows.append({"figure": figure, "label": label, "backend": backend,
                            "options": opts, **{k: r[k] for k in (
                                "seeds", "success_rate", "e_pos_mean", "overhead_mean")}})
-    with stage("scorecard"):
-        card = build_scorecard(scorecard or ScorecardPlan.of(quick), progress)
     return {
         "schema_version": SCHEMA_VERSION,
         "title": "cml-edge hardware-budget report",

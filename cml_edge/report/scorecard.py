@@ -4,10 +4,13 @@ recovery curves.
 Read top to bottom: :func:`build_scorecard` runs each scenario of
 :data:`cml_edge.scenarios.SCENARIOS` on each device of the report (the systems of
 :func:`cml_edge.backends.report_systems`, the earlier crossbar presets under their new
-names among them) through :func:`cml_edge.scenarios.run_scenario` (the sweep engine: a
-local pool, one worker per core), then each break point the devices declare for the
-report (:func:`reference_breakpoints`; :func:`cml_edge.scenarios.breakpoint.find_breakpoint`),
-and returns the three lists the report keeps under stable keys:
+names among them) as one batch of sweep tasks (:class:`~cml_edge.report.batch.Batch`:
+the report's workers; the scenarios that start from the same training share one model
+per seed, :func:`cml_edge.scenarios.runner.shared_training`, with the numbers of their own
+runs), then each break point the devices declare for the report
+(:func:`reference_breakpoints`; the bisection of
+:func:`cml_edge.scenarios.breakpoint.find_breakpoint`, all break points in lockstep,
+:func:`run_searches`), and returns the three lists the report keeps under stable keys:
 
 - ``scorecard``: one row per device x scenario x part (a scenario's evaluation
   condition, e.g. retention's ``1y``): ``device``, ``scenario``, ``part``,
@@ -28,13 +31,21 @@ from an earlier run.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from cml_edge.backends import backend_spec, report_breakpoints, report_systems
-from cml_edge.scenarios import SCENARIOS, run_scenario
-from cml_edge.scenarios.breakpoint import find_breakpoint, get_knob
+from cml_edge.engine.sweep import Task
+from cml_edge.report.batch import Batch
+from cml_edge.scenarios import SCENARIOS
+from cml_edge.scenarios.breakpoint import Search, get_knob
+from cml_edge.scenarios.breakpoint import breakpoint_search as breakpoint_search_of
+from cml_edge.scenarios.runner import (
+    scenario_result,
+    scenario_tasks,
+    shared_result,
+    shared_training,
+)
 
 
 @dataclass(frozen=True)
@@ -82,8 +93,8 @@ class ScorecardPlan:
     @classmethod
     def of(cls, quick: bool) -> ScorecardPlan:
         """The reference plan (3 model seeds at the full budget, the paper's protocol;
-        break points on 3 as well: ten devices x eight scenarios is about half an hour on
-        two cores) or the quick one (2 seeds at the quick budget, every section kept)."""
+        break points on 3 as well; benchmarks/README.md times it) or the quick one (2
+        seeds at the quick budget, every section kept)."""
         return cls(2, "quick", 2) if quick else cls(3, "full", 3)
 
 
@@ -121,16 +132,29 @@ def recovery_rows(device: str, result: dict[str, Any]) -> list[dict[str, Any]]:
              "seeds": result["seeds"]} for p in result["parts"]]
 
 
-def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan) -> dict[str, Any]:
-    """One break point, or the reason there is none (the range does not bracket)."""
-    knob = get_knob(bp.knob, backend_spec(bp.backend).device.name)
+def breakpoint_search(bp: Breakpoint, plan: ScorecardPlan) -> Search:
+    """The search of one break point of the report (its inputs checked)."""
+    return breakpoint_search_of(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
+                                plan.breakpoint_seeds, bp.value_range, plan.budget)
+
+
+def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan, search: Search | None = None,
+                   batch: Batch | None = None) -> dict[str, Any]:
+    """One break point, or the reason there is none (the range does not bracket):
+    ``search`` done already, or run here (on ``batch``, else on ``plan.workers``)."""
+    if search is None:
+        search = breakpoint_search(bp, plan)
+        if batch is None:
+            with Batch(plan.workers) as batch:
+                run_searches([(bp, search)], batch)
+        else:
+            run_searches([(bp, search)], batch)
+    knob = search.knob
+    res = search.result()
     row: dict[str, Any] = {"device": bp.device, "backend": bp.backend, "options": bp.options,
                            "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
                            "seeds": plan.breakpoint_seeds, "budget": plan.budget,
                            "log": knob.log}
-    res = find_breakpoint(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
-                          plan.breakpoint_seeds, bp.value_range, plan.budget,
-                          workers=plan.workers)
     if not res["found"]:  # not bracketed: a finding, reported as measured
         return {**row, "value": None, "note": res["note"], "evaluations": res["evaluations"],
                 "n_evaluations": res["n_evaluations"]}
@@ -139,26 +163,70 @@ def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan) -> dict[str, Any]:
             "n_evaluations": res["n_evaluations"]}
 
 
-def build_scorecard(plan: ScorecardPlan, progress: Callable[[str], None] = lambda m: None
-                    ) -> dict[str, Any]:
+def run_searches(searches: list[tuple[Breakpoint, Search]], batch: Batch) -> None:
+    """Every search's bisection in lockstep: each round runs the evaluations every search
+    has pending (its two ends first, then one middle value each) as one batch of tasks."""
+    while True:
+        round_: list[tuple[Search, float, dict[str, Any], float, list[Task]]] = []
+        for bp, search in searches:
+            for k in search.bisection.pending:
+                value = search.grid[k]
+                options, idle = search.setting(value)
+                prefix = f"bp-{bp.device}-{bp.knob}={value}-"
+                tasks = [Task(prefix + t.key, t.fn, t.params) for t in scenario_tasks(
+                    search.scenario, search.backend, options, search.seeds, search.budget,
+                    idle)]
+                round_.append((search, value, options, idle, tasks))
+        if not round_:
+            return
+        results = batch.run("breakpoints", [t for *_, tasks in round_ for t in tasks])
+        passed: dict[int, list[bool]] = {}
+        for search, value, options, idle, tasks in round_:
+            res = scenario_result(search.scenario, search.backend, options, search.seeds,
+                                  search.budget, idle, tasks, results)
+            passed.setdefault(id(search), []).append(search.record(value, res))
+        for _, search in searches:
+            if search.bisection.pending:
+                search.bisection.record(passed[id(search)])
+
+
+def scorecard_tasks(plan: ScorecardPlan) -> dict[tuple[str, str], list[Task]]:
+    """The tasks of each (device label, scenario) of the scorecard."""
+    own: dict[tuple[str, str], list[Task]] = {}
+    for label, backend, options in plan.devices:
+        for name in plan.scenarios:
+            own[label, name] = [Task(f"card-{label}-{t.key}", t.fn, t.params) for t in
+                                scenario_tasks(name, backend, options, plan.seeds,
+                                               plan.budget)]
+    return own
+
+
+def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str, Any]:
     """The ``scorecard``, ``breakpoints`` and ``recovery`` sections (module docstring),
-    and the plan they were measured with (``scorecard_plan``)."""
+    and the plan they were measured with (``scorecard_plan``); on ``batch`` (else on
+    ``plan.workers``)."""
+    if batch is None:
+        with Batch(plan.workers) as batch:
+            return build_scorecard(plan, batch)
+    own = scorecard_tasks(plan)
+    tasks, owner = shared_training([t for ts in own.values() for t in ts])
+    searches = [(bp, breakpoint_search(bp, plan)) for bp in plan.breakpoints]
+    done = batch.run("scorecard", tasks)
     scorecard: list[dict[str, Any]] = []
     recovery: list[dict[str, Any]] = []
     dqn_retrain = None
     for label, backend, options in plan.devices:
         for name in plan.scenarios:
-            progress(f"scorecard {label}: {name}")
-            res = run_scenario(name, backend, options, plan.seeds, plan.budget,
-                               workers=plan.workers)
+            ts = own[label, name]
+            results = {t.key: shared_result(t, done[owner[t.key]]) for t in ts}
+            res = scenario_result(name, backend, options, plan.seeds, plan.budget, 0.0, ts,
+                                  results)
             scorecard += scorecard_rows(label, res)
             if name == "recovery":
                 recovery += recovery_rows(label, res)
                 dqn_retrain = res["dqn_retrain"]
-    breakpoints = []
-    for bp in plan.breakpoints:
-        progress(f"break point {bp.device}: {bp.knob}")
-        breakpoints.append(breakpoint_row(bp, plan))
+    run_searches(searches, batch)
+    breakpoints = [breakpoint_row(bp, plan, search) for bp, search in searches]
     return {"scorecard": scorecard, "breakpoints": breakpoints, "recovery": recovery,
             "dqn_retrain": dqn_retrain,
             "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -108,30 +109,49 @@ def scenario_success(result: dict[str, Any], part: str | None = None) -> float:
     return min(rates.values())
 
 
+class Bisection:
+    """Bisection on ``grid`` (good end first) for the last value that passes, a batch of
+    evaluations at a time: :attr:`pending` holds the grid indices to evaluate next (the
+    two ends first, then each middle index), :meth:`record` takes whether they passed.
+    When :attr:`pending` is empty, :attr:`bracketed` says whether the two ends bracket
+    the target (the good end passes, the bad end fails) and :attr:`i` / :attr:`j` are the
+    last passing and the first failing index; :attr:`seen` is every (value, passed) in
+    the order evaluated."""
+
+    def __init__(self, grid: list[float]) -> None:
+        self.grid = grid
+        self.seen: list[tuple[float, bool]] = []
+        self.pending = [0, len(grid) - 1]
+        self.bracketed = False
+        self.i, self.j = 0, len(grid) - 1
+
+    def record(self, passed: list[bool]) -> None:
+        """Whether the values at :attr:`pending` passed, in its order."""
+        if len(passed) != len(self.pending):
+            raise ValueError(f"{len(passed)} outcomes for {len(self.pending)} evaluations")
+        self.seen += [(self.grid[k], ok) for k, ok in zip(self.pending, passed)]
+        if self.pending == [0, len(self.grid) - 1]:  # the two ends
+            self.bracketed = passed[0] and not passed[1]
+            if not self.bracketed:
+                self.pending = []
+                return
+        else:
+            (m,), (ok,) = self.pending, passed
+            self.i, self.j = (m, self.j) if ok else (self.i, m)
+        self.pending = [(self.i + self.j) // 2] if self.j - self.i > 1 else []
+
+
 def bisect(grid: list[float], passes: Callable[[float], bool]
            ) -> tuple[int, int, list[tuple[float, bool]]]:
-    """Bisection on ``grid`` (good end first) for the last value that passes: returns
-    (last passing index, first failing index, the evaluations in order). The two ends
-    are evaluated first; InputError when they do not bracket (the good end fails or the
-    bad end passes)."""
-    seen: list[tuple[float, bool]] = []
-
-    def check(i: int) -> bool:
-        ok = passes(grid[i])
-        seen.append((grid[i], ok))
-        return ok
-
-    good, bad = check(0), check(len(grid) - 1)
-    if not good or bad:
-        raise NotBracketedError(seen)
-    i, j = 0, len(grid) - 1
-    while j - i > 1:
-        m = (i + j) // 2
-        if check(m):
-            i = m
-        else:
-            j = m
-    return i, j, seen
+    """:class:`Bisection` one evaluation at a time: returns (last passing index, first
+    failing index, the evaluations in order); :class:`NotBracketedError` when the two
+    ends do not bracket (the good end fails or the bad end passes)."""
+    b = Bisection(grid)
+    while b.pending:
+        b.record([passes(grid[k]) for k in b.pending])
+    if not b.bracketed:
+        raise NotBracketedError(b.seen)
+    return b.i, b.j, b.seen
 
 
 class NotBracketedError(InputError):
@@ -145,19 +165,65 @@ TINY_NOTE = ("--budget tiny is a smoke test (3 walks x 100 steps a model): its m
              "little success, so a break point is rarely found")
 
 
-def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, Any] | None = None,
-                    target: float = 0.95, seeds: int = 3, value_range: tuple[float, float]
-                    | None = None, budget: str = "full", part: str | None = None,
-                    out: str | Path | None = None, workers: int | None = None,
-                    scheduler: str | None = None, command: str | None = None,
-                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None
-                    ) -> dict[str, Any]:
-    """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
-    ``options``: the device's other settings (the knob's field overrides them); ``out``:
-    each evaluation's sweep under ``out/KNOB=VALUE`` (resumable; a sweep of other settings
-    there is refused unless ``restart``, which starts each over). ``on_start`` is called
-    once the inputs are checked, before the first run, with notes the user should read
-    first."""
+@dataclass
+class Search:
+    """One break point's search with its inputs checked (:func:`breakpoint_search`): the
+    knob's grid and its :class:`Bisection`, and every evaluation so far (knob value,
+    success, each part's success) in the order it ran."""
+
+    scenario: str
+    backend: str
+    options: dict[str, Any]
+    knob: Knob
+    target: float
+    seeds: int
+    budget: str
+    part: str | None
+    lo: float
+    hi: float
+    physical: bool
+    """The range is the knob's default."""
+    grid: list[float]
+    bisection: Bisection
+    evaluations: list[dict[str, Any]] = field(default_factory=list)
+
+    def setting(self, value: float) -> tuple[dict[str, Any], float]:
+        """(device options, idle seconds) of an evaluation at knob ``value``."""
+        setting, idle = knob_setting(self.knob, value)
+        return {**self.options, **setting}, idle
+
+    def record(self, value: float, result: dict[str, Any]) -> bool:
+        """Keep the scenario ``result`` at ``value``; whether it met the target."""
+        success = scenario_success(result, self.part)
+        self.evaluations.append({"value": value, "success_rate": success, "parts": {
+            p["part"]: p["success_rate"] for p in result["parts"]}})
+        return success >= self.target
+
+    def result(self, command: str | None = None) -> dict[str, Any]:
+        """The break point once :attr:`bisection` has no evaluation pending (module
+        docstring)."""
+        b = self.bisection
+        out = {"scenario": self.scenario, "backend": self.backend,
+               "backend_options": dict(self.options), "knob": self.knob.name,
+               "field": self.knob.field, "good": self.knob.good, "target": self.target,
+               "range": [self.lo, self.hi], "grid": self.grid, "seeds": int(self.seeds),
+               "seed_list": list(range(int(self.seeds))), "budget": self.budget,
+               "part": self.part, "evaluations": self.evaluations}
+        if not b.bracketed:
+            return {**out, "value": None, "bracket": None, "found": False,
+                    "note": no_break_point(self.knob, self.lo, self.hi, self.target,
+                                           self.evaluations, self.physical),
+                    "n_evaluations": len(self.evaluations), "command": command}
+        return {**out, "value": self.grid[b.i], "bracket": [self.grid[b.i], self.grid[b.j]],
+                "found": True, "n_evaluations": len(self.evaluations), "command": command}
+
+
+def breakpoint_search(scenario: str, backend: str, knob: str,
+                      options: dict[str, Any] | None = None, target: float = 0.95,
+                      seeds: int = 3, value_range: tuple[float, float] | None = None,
+                      budget: str = "full", part: str | None = None) -> Search:
+    """The :class:`Search` of a break point, every input checked (InputError naming the
+    first bad one) before any run."""
     scen = get(scenario)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; known: {', '.join(BUDGETS)}")
@@ -194,33 +260,39 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
     grid = knob_grid(k, lo, hi)
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
+    return Search(scenario, backend, dict(options or {}), k, target, int(seeds), budget, part,
+                  lo, hi, value_range is None, grid, Bisection(grid))
+
+
+def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, Any] | None = None,
+                    target: float = 0.95, seeds: int = 3, value_range: tuple[float, float]
+                    | None = None, budget: str = "full", part: str | None = None,
+                    out: str | Path | None = None, workers: int | None = None,
+                    scheduler: str | None = None, command: str | None = None,
+                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None
+                    ) -> dict[str, Any]:
+    """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
+    ``options``: the device's other settings (the knob's field overrides them); ``out``:
+    each evaluation's sweep under ``out/KNOB=VALUE`` (resumable; a sweep of other settings
+    there is refused unless ``restart``, which starts each over). ``on_start`` is called
+    once the inputs are checked, before the first run, with notes the user should read
+    first."""
+    search = breakpoint_search(scenario, backend, knob, options, target, seeds, value_range,
+                               budget, part)
     if on_start is not None:
         on_start([TINY_NOTE] if budget == "tiny" else [])
-    evaluations: list[dict[str, Any]] = []
-
-    def passes(value: float) -> bool:
-        setting, idle = knob_setting(k, value)
-        res = run_scenario(scenario, backend, {**(options or {}), **setting}, seeds, budget,
-                           Path(out) / f"{knob}={value}" if out is not None else None,
-                           workers, scheduler, idle_s=idle, restart=restart)
-        success = scenario_success(res, part)
-        evaluations.append({"value": value, "success_rate": success,
-                            "parts": {p["part"]: p["success_rate"] for p in res["parts"]}})
-        return success >= target
-
-    result = {"scenario": scenario, "backend": backend, "backend_options": dict(options or {}),
-              "knob": knob, "field": k.field, "good": k.good, "target": target,
-              "range": [lo, hi], "grid": grid, "seeds": int(seeds),
-              "seed_list": list(range(int(seeds))), "budget": budget, "part": part,
-              "evaluations": evaluations}
-    try:
-        i, j, _ = bisect(grid, passes)
-    except NotBracketedError:
-        return {**result, "value": None, "bracket": None, "found": False,
-                "note": no_break_point(k, lo, hi, target, evaluations, value_range is None),
-                "n_evaluations": len(evaluations), "command": command}
-    return {**result, "value": grid[i], "bracket": [grid[i], grid[j]], "found": True,
-            "n_evaluations": len(evaluations), "command": command}
+    b = search.bisection
+    while b.pending:
+        passed = []
+        for k in b.pending:
+            value = search.grid[k]
+            opts, idle = search.setting(value)
+            res = run_scenario(scenario, backend, opts, seeds, budget,
+                               Path(out) / f"{knob}={value}" if out is not None else None,
+                               workers, scheduler, idle_s=idle, restart=restart)
+            passed.append(search.record(value, res))
+        b.record(passed)
+    return search.result(command)
 
 
 def no_break_point(knob: Knob, lo: float, hi: float, target: float,

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -155,8 +155,6 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     ``restart``; more seeds or chips resume it). Returns the JSON-ready result (module
     docstring)."""
     options = dict(options or {})
-    scenario = get(name)
-    world = get_world(scenario.world)
     chip_seeds = None
     if chips is not None:
         check_chips(chips, yield_target, first_chip)
@@ -168,6 +166,27 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
                             progress=progress, resumable=out is not None,
                             settings=run_settings(name, backend, options, budget, idle_s),
                             restart=restart)
+    result = scenario_result(name, backend, options, seeds, budget, idle_s, tasks, results,
+                             yield_target)
+    result.update({"wall_time_s": time.perf_counter() - t0, "command": command,
+                   "cml_edge_version": __version__})
+    if out is not None:
+        with stage("write"):
+            atomic_write_text(Path(out) / "results.json", dumps(result, indent=1))
+        result["out"] = str(out)
+    return result
+
+
+def scenario_result(name: str, backend: str, options: dict[str, Any], seeds: int,
+                    budget: str, idle_s: float, tasks: Sequence[Task],
+                    results: Mapping[str, dict[str, Any]],
+                    yield_target: float = DEFAULT_YIELD_TARGET) -> dict[str, Any]:
+    """The result of scenario ``name`` from its tasks (:func:`scenario_tasks`) and their
+    results by key: each part pooled over the seeds (and chips, when the tasks have
+    them; module docstring)."""
+    scenario = get(name)
+    world = get_world(scenario.world)
+    chip_seeds = sorted({t.params["chip"] for t in tasks if "chip" in t.params}) or None
     parts: dict[str, list[tuple[dict[str, Any], int, int | None]]] = {}
     for task in tasks:  # (record, model seed, chip seed) of each part
         res = results[task.key]
@@ -201,10 +220,40 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
         from cml_edge.costs.dqn import dqn_retrain_estimate
 
         result["dqn_retrain"] = dqn_retrain_estimate()
-    result.update({"wall_time_s": time.perf_counter() - t0, "command": command,
-                   "cml_edge_version": __version__})
-    if out is not None:
-        with stage("write"):
-            atomic_write_text(Path(out) / "results.json", dumps(result, indent=1))
-        result["out"] = str(out)
     return result
+
+
+def shared_training(tasks: Sequence[Task]) -> tuple[list[Task], dict[str, str]]:
+    """One task per trained model: tasks that train the same model (the same world,
+    device, training run, seed, chip and idle time; parts aside) become one task
+    evaluating all their parts, so the model and its twin are trained once (the paper,
+    retention, clutter and recovery scenarios all start from the paper's training).
+    Returns the tasks to run and, per given task's key, the key of the task that runs it
+    (:func:`shared_result` takes its result apart). A part reads and ages a copy of the
+    model (:mod:`cml_edge.scenarios.tasks`), so every part's numbers are those of its own
+    scenario's task; the part names of a merged task must differ."""
+    groups: dict[str, list[Task]] = {}
+    for task in tasks:
+        same = dumps({k: v for k, v in task.params.items() if k != "parts"}, sort_keys=True)
+        groups.setdefault(task.fn + same, []).append(task)
+    merged, owner = [], {}
+    for group in groups.values():
+        if len(group) == 1:
+            merged.append(group[0])
+            owner[group[0].key] = group[0].key
+            continue
+        parts = [p for t in group for p in t.params["parts"]]
+        names = [p["name"] for p in parts]
+        if len(set(names)) != len(names):
+            raise ValueError(f"tasks {[t.key for t in group]} share part names")
+        key = "+".join(t.key for t in group)
+        merged.append(Task(key, group[0].fn, {**group[0].params, "parts": parts}))
+        owner.update({t.key: key for t in group})
+    return merged, owner
+
+
+def shared_result(task: Task, result: dict[str, Any]) -> dict[str, Any]:
+    """``task``'s result out of the result of the task that ran it
+    (:func:`shared_training`): its own parts, in its order."""
+    by_name = {p["name"]: p for p in result["parts"]}
+    return {**result, "parts": [by_name[p["name"]] for p in task.params["parts"]]}

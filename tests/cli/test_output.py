@@ -266,3 +266,16 @@ def test_the_sweep_view(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("| ") and lines[-1] == "results: runs/x/results.json, " \
         "results.csv, figure.png"
+
+
+def test_stage_progress_off_a_terminal_says_each_tenth_once(capsys):
+    from cml_edge.cli.tools import StageProgress
+
+    progress = StageProgress("report")
+    for done in range(21):
+        progress("systems", done, 20)
+    progress("scorecard", 3, 3)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" (")[0] for line in lines] == [
+        *(f"report: systems: {2 * k}/20 tasks" for k in range(11)),
+        "report: scorecard: 3/3 tasks"]

@@ -24,6 +24,7 @@ COMMANDS = {
                 "--walks", "30", "--chips-out", "{out}"],
     "breakpoint": ["breakpoint", "--knob", "read_noise", "--scenario", "paper", "--backend",
                    "crossbar", "--budget", "tiny", "--out", "{out}"],
+    "report": ["report", "--quick", "--out", "{out}"],
 }
 STOP_S = 10  # "within a few seconds", with room for a loaded machine
 

@@ -1,10 +1,12 @@
 """The sweep engine: atomic per-task results, resume without recomputation, pool == Dask."""
 
 import json
+import os
 
 import pytest
 
-from cml_edge.engine.sweep import Task, load_done, run_sweep, task_path
+from cml_edge.engine.sweep import Task, Workers, load_done, run_sweep, task_path
+from cml_edge.errors import InputError
 from cml_edge.experiments.common import TASK_FN, eval_spec, make_tasks
 from cml_edge.grid.evaluation import pool_records
 
@@ -98,3 +100,19 @@ def test_unreachable_scheduler(tmp_path, monkeypatch):
     monkeypatch.setattr("cml_edge.engine.sweep.CONNECT_TIMEOUT", "1s")
     with pytest.raises(ValueError, match="cannot reach the Dask scheduler"):
         run_sweep(tiny_tasks(1), tmp_path, scheduler="tcp://127.0.0.1:9")
+
+
+def whoami(i: int) -> dict:
+    return {"i": i, "pid": os.getpid()}
+
+
+def test_workers_kept_for_several_sweeps_are_the_same_processes(tmp_path):
+    tasks = [Task(f"t{i}", f"{__name__}:whoami", {"i": i}) for i in range(6)]
+    with Workers(2) as pool:
+        first = run_sweep(tasks[:3], tmp_path / "a", pool=pool, group=lambda t: t.params["i"] % 2)
+        second = run_sweep(tasks[3:], tmp_path / "b", pool=pool)
+    pids = {r["pid"] for r in first.values()}
+    assert os.getpid() not in pids and {r["pid"] for r in second.values()} <= pids
+    assert [r["i"] for r in (*first.values(), *second.values())] == list(range(6))
+    with pytest.raises(InputError):
+        Workers(0)

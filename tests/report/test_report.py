@@ -8,6 +8,7 @@ import pytest
 from cml_edge.core.cml import CML
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
+from cml_edge.errors import InputError
 from cml_edge.report import build_report, write_report
 from cml_edge.report.render import fmt
 from cml_edge.report.scorecard import Breakpoint, ScorecardPlan, breakpoint_row
@@ -244,3 +245,37 @@ def test_the_devices_cost_models_price_the_reference_report_to_the_last_bit():
         assert sources == s["energy_sources"], s["label"]
         assert counted_flops(ledger.counted_macs(model, s["plan_counters"]),
                              s["plan_steps"]) == s["inference_flops_counted"], s["label"]
+
+
+SMALL = {"quick": True, "systems": [("float32", "float32", {})], "sweeps": [],
+         "scorecard": ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {})],
+                                    scenarios=("paper", "clutter"), breakpoints=(
+                                        Breakpoint("float32", "float32", {}, "drift_time"),),
+                                    workers=1)}
+
+
+def _measured(rep):
+    """The report without its times and date."""
+    skip = {"generated", "wall_time_s", "train_wall_s", "protocol_wall_s"}
+    return {k: v if k != "systems" else [{a: b for a, b in s.items() if a not in skip}
+                                         for s in v]
+            for k, v in rep.items() if k not in skip}
+
+
+@pytest.mark.slow
+def test_a_killed_report_resumes_from_its_finished_tasks(tmp_path):
+    ran = build_report(folder=tmp_path, **SMALL)
+    files = sorted((tmp_path / "tasks").glob("*.json"))
+    assert len(files) == 2 + 1 + 2 + 2 * 2  # protocol seeds, operations, models, two ends
+    for f in files[::2]:
+        f.unlink()
+    seen = []
+    again = build_report(folder=tmp_path, progress=lambda *s: seen.append(s), **SMALL)
+    assert _measured(again) == _measured(ran)
+    first = {}
+    for stage, done, total in seen:  # each stage's first call: the tasks kept
+        first.setdefault(stage, total - done)
+    assert sum(first.values()) == len(files[::2])  # only the removed tasks ran again
+    with pytest.raises(InputError, match="other settings"):
+        build_report(folder=tmp_path, **{**SMALL, "quick": False})
+    assert _measured(build_report(folder=tmp_path, restart=True, **SMALL)) == _measured(ran)

@@ -1,0 +1,64 @@
+"""The report's tasks, stage by stage, on one set of workers.
+
+A :class:`Batch` keeps one :class:`~cml_edge.engine.sweep.Workers` for the whole report, so
+its worker processes compile or load each kernel once, not once per scenario; each stage
+(:meth:`Batch.run`) is a sweep (:func:`~cml_edge.engine.sweep.run_sweep`) of the stage's
+tasks into the report's run folder, each task's result kept there as it ends, so a report
+run again into the same folder resumes from every task that had ended. Tasks are grouped
+by device (:func:`device_group`): on a local pool each device's first task runs first,
+spread over the workers, and the rest of its tasks once its kernels are compiled.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from cml_edge.engine import timings
+from cml_edge.engine.sweep import Task, Workers, run_sweep
+
+
+def device_group(task: Task) -> str:
+    """The backend a task runs on: what decides the kernels it compiles (the presets of a
+    backend share them)."""
+    return task.params.get("protocol", task.params)["backend"]
+
+
+class Batch:
+    """Run the report's stages on ``workers`` processes (or the Dask ``scheduler``) into
+    run folder ``folder`` (None: a temporary one), a run of ``settings``
+    (:mod:`cml_edge.engine.runs`: a folder of other settings is refused unless
+    ``restart``). ``progress(stage, done, total)`` counts each stage's tasks."""
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None,
+                 folder: str | Path | None = None, settings: dict[str, Any] | None = None,
+                 progress: Callable[[str, int, int], None] | None = None,
+                 restart: bool = False) -> None:
+        self.pool = Workers(workers, scheduler)
+        self._tmp = tempfile.TemporaryDirectory(prefix="cml-edge-report-") \
+            if folder is None else None
+        self.folder = Path(self._tmp.name if self._tmp is not None else folder)
+        self.settings = settings or {"run": "report"}
+        self.progress = progress
+        self.restart = restart
+
+    def __enter__(self) -> Batch:
+        return self
+
+    def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
+        self.pool.close(failed=kind is not None)
+        if self._tmp is not None:
+            self._tmp.cleanup()
+
+    def run(self, stage: str, tasks: list[Task]) -> dict[str, dict[str, Any]]:
+        """The results of ``tasks`` by key, as stage ``stage``."""
+        tick = None if self.progress is None else \
+            (lambda done, total: self.progress(stage, done, total))
+        with timings.stage(stage):
+            results = run_sweep(tasks, self.folder, progress=tick, settings=self.settings,
+                                restart=self.restart, pool=self.pool, group=device_group,
+                                resumable=self._tmp is None)
+        self.restart = False  # the run folder is started over once, by the first stage
+        return results
