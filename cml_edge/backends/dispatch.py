@@ -27,11 +27,10 @@ from numba.core.errors import NumbaIRAssumptionWarning
 
 from cml_edge.jit.routing import routed
 
-# A device's kernels are inlined at Numba-IR level (inline="always") into the routed
-# function of its state type, compiled once without reference counts
-# (:mod:`cml_edge.jit.routing`): a loop compiled with reference counting would otherwise
-# count every array of the state tuple at each call (the training and planning loops are
-# kernels, :mod:`cml_edge.jit.kernel`, and pay none). Numba's
+# Kernels are inlined at Numba-IR level (inline="always"): a call through the seam
+# otherwise costs more than the arithmetic of a 256 x 8 read (the call, and, in a loop
+# compiled with reference counting, the counts of every array in the state tuple; the
+# training and planning loops are kernels, :mod:`cml_edge.jit.kernel`, and pay none). Numba's
 # SSA pass emits an internal "pedantic"
 # NumbaIRAssumptionWarning for inlined loops; it flags no error (the tests hold the
 # inlined and the called kernels to bit equality), so it is muted.

@@ -50,7 +50,7 @@ def begin_walk(learner):
     """A walk starts (the factored learner forms its per-walk maps)."""
 
 
-@routed(inline=True)
+@routed
 def learn(learner, o_t, o_1, a):
     """One step of Eqs. 1-3, from observation o_t to o_1 by action a; returns ||e_t||
     (0 for a learner that sums its error at the walk's end)."""

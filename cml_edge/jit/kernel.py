@@ -61,15 +61,9 @@ class KernelCompiler(CompilerBase):
         return [pm]
 
 
-def kernel_options() -> dict:
-    """The options of :func:`kernel` but the cache (for a function Numba builds, which has
-    no source file to key a cache by: a routed function, :mod:`cml_edge.jit.routing`)."""
-    return {"_nrt": False, "pipeline_class": KernelCompiler}
-
-
 def kernel(fn):
     """``@kernel``: ``njit(cache=True)`` without reference counting (module docstring)."""
-    return njit(cache=True, **kernel_options())(fn)
+    return njit(cache=True, _nrt=False, pipeline_class=KernelCompiler)(fn)
 
 
 def allocates(fn):

@@ -3,15 +3,11 @@
 The synaptic-array seam (:mod:`cml_edge.backends.dispatch`) and the plug-ins of the
 worlds' loops (learners, scorers, explorers, simulators) are written this way. A loop
 calls, say, ``learn(learner, o_t, o_1, a)``; Numba picks, while typing the loop, the
-implementation registered for the class of ``learner`` (a ``NamedTuple``), compiles it
-once per signature as a function of its own with :func:`~cml_edge.jit.kernel.kernel`'s
-options (no reference counts) and links it into the loop, where LLVM may inline it; so a
-loop is written once and compiled once per combination of plug-ins. (Numba's inlining of
-an overload, ``inline="always"``, compiled the implementation on its own all the same, to
-learn its signature, then typed it again and copied it into every call site: a large
-part of a first run's compile, benchmarks/README.md.) Called from Python, the same
-function looks the implementation up by ``type(first)``, so a loop's ``py_func`` runs
-unchanged with Python plug-ins (the readable reference paths, the MuJoCo simulator).
+implementation registered for the class of ``learner`` (a ``NamedTuple``) and inlines
+it, so a loop is written once and compiled once per combination of plug-ins, with no
+cost per call. Called from Python, the same function looks the implementation up by
+``type(first)``, so a loop's ``py_func`` runs unchanged with Python plug-ins (the
+readable reference paths, the MuJoCo simulator).
 
 Why not pass the implementations to the loop as arguments: Numba cannot cache a
 function that takes dispatchers as arguments, so every process would compile the loops
@@ -19,10 +15,9 @@ again; overloads keyed by type are resolved at typing time and cache normally.
 
 A routed function called with a constant ``True`` or ``False`` (a literal bool while Numba
 types the caller) passes the constant on to the implementation, which Numba inlines with
-it (a device's kernels are ``inline="always"``): a branch on it is then pruned before the
-rest is typed, so nothing the untaken side calls is compiled (the crossbar's in-place
-pulsed update, in a loop that only ever accumulates). The value is the same, so is every
-result.
+it: a branch on it is then pruned before the rest is typed, so nothing the untaken side
+calls is compiled (the crossbar's in-place pulsed update, in a loop that only ever
+accumulates). The value is the same, so is every result.
 """
 
 from __future__ import annotations
@@ -35,22 +30,12 @@ from typing import Any
 from numba.core.types import BooleanLiteral, Literal
 from numba.extending import overload
 
-from cml_edge.jit.kernel import kernel_options
 
-_CALLED = kernel_options()
-
-
-def routed(stub: Callable[..., Any] | None = None, *,
-           inline: bool = False) -> Callable[..., Any]:
+def routed(stub: Callable[..., Any]) -> Callable[..., Any]:
     """Turn ``stub`` (a documented signature, no body) into a function routed by the type
     of its first argument. ``f.register(cls, impl)`` adds an implementation: an ``@njit``
     function for a ``NamedTuple`` class (usable from compiled and Python code), or any
-    Python callable for a Python-only class. ``@routed(inline=True)``: Numba inlines the
-    implementation into its callers instead (the learner's step: as a call, with three
-    arrays' states for arguments, it made a training step 5-9 % slower,
-    benchmarks/README.md)."""
-    if stub is None:
-        return functools.partial(routed, inline=inline)
+    Python callable for a Python-only class."""
     registry: dict[type, Callable[..., Any]] = {}
     name = stub.__name__
     params = list(inspect.signature(stub).parameters)
@@ -85,8 +70,7 @@ def routed(stub: Callable[..., Any] | None = None, *,
 
     scope = {"typer": typer}
     exec(f"def {name}_typer({arglist}):\n    return typer({arglist})\n", scope)
-    overload(call, inline="always" if inline else "never", prefer_literal=True,
-             jit_options=_CALLED)(scope[f"{name}_typer"])
+    overload(call, inline="always", prefer_literal=True)(scope[f"{name}_typer"])
     call.register = register  # type: ignore[attr-defined]
     call.implementations = registry  # type: ignore[attr-defined]
     return call
