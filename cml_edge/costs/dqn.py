@@ -31,6 +31,7 @@ from typing import Any
 from cml_edge.baselines import load_results, mlp_inference_flops, mlp_parameter_count
 from cml_edge.baselines.settings import HYPERPARAMS, NET_ARCH, PAPER_LAYERS, RESULTS_PATH
 from cml_edge.costs.ledger import COSTS, FLOPS_PER_MAC
+from cml_edge.io.files import display_path
 
 
 @dataclass(frozen=True)
@@ -143,5 +144,5 @@ def dqn_retrain_estimate(path: str | None = None) -> dict[str, Any]:
                                "replay_refill": _cost(settings, settings.learning_starts)}
         row["to_converge"] = _cost(settings, conv["step"]) if conv.get("step") else None
         configs.append(row)
-    return {"available": True, "method": ESTIMATE, "source": str(path or RESULTS_PATH),
+    return {"available": True, "method": ESTIMATE, "source": display_path(path or RESULTS_PATH),
             "configs": configs}

@@ -106,3 +106,14 @@ def _umask() -> int:
 
 def atomic_write_text(path: str | Path, text: str) -> None:
     atomic_write(path, lambda f: f.write(text.encode()))
+
+
+def display_path(path: str | Path) -> str:
+    """``path`` relative to the working folder when inside it (the repository's
+    ``hw_reports/...`` in the reference report: no machine's folders in a committed
+    result), else absolute."""
+    path = Path(path).resolve()
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)

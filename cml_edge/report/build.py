@@ -38,6 +38,7 @@ from cml_edge.costs import ledger
 from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
 from cml_edge.errors import RunError
+from cml_edge.io.files import display_path
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     PROTOCOL_TASK,
@@ -273,7 +274,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         "protocol": {"arena": 30, "walks": 100, "steps": 900, "seeds": prof["seeds"],
                      "trials": prof["trials"], "eval_seed": EVAL_SEED, "max_steps": 100},
         "systems": rows + dqn,
-        "dqn_results_file": _display_path(dqn_results) if dqn_data is not None else None,
+        "dqn_results_file": display_path(dqn_results) if dqn_data is not None else None,
         "dqn_runs": {k: {"seeds_done": sorted((v.get("seeds") or {}).keys(), key=int),
                          "steps": v.get("steps")}
                      for k, v in (dqn_data or {}).get("runs", {}).items()},
@@ -282,16 +283,6 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         **card,
         "wall_time_s": time.perf_counter() - t0,
     }
-
-
-def _display_path(path: str | Path) -> str:
-    """``path`` relative to the working folder when inside it (the repository's
-    ``hw_reports/...`` in the reference report), else absolute."""
-    path = Path(path).resolve()
-    try:
-        return str(path.relative_to(Path.cwd()))
-    except ValueError:
-        return str(path)
 
 
 def _versions() -> dict[str, str]:
