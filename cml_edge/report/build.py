@@ -38,7 +38,6 @@ from cml_edge.costs import ledger
 from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
 from cml_edge.errors import RunError
-from cml_edge.io.files import display_path
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     PROTOCOL_TASK,
@@ -51,6 +50,7 @@ from cml_edge.grid.evaluation import (
 )
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.training import TrainConfig
+from cml_edge.io.files import display_path
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
