@@ -106,8 +106,8 @@ for name in ("recovery", "robot"):
     result = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
     result.pop("wall_time_s")
     if "dqn_retrain" in result:  # the DQN's results file, not this machine's path to it
-        source = Path(result["dqn_retrain"]["source"])
-        result["dqn_retrain"]["source"] = str(source.relative_to(SRC))
+        source = Path.cwd() / result["dqn_retrain"]["source"]  # relative when under it
+        result["dqn_retrain"]["source"] = str(source.resolve().relative_to(SRC))
     scenarios[name] = result
     print(name, flush=True)
 (OUT / "scenarios.json").write_text(json.dumps(scenarios, indent=1) + "\n")
