@@ -279,3 +279,15 @@ def test_a_killed_report_resumes_from_its_finished_tasks(tmp_path):
     with pytest.raises(InputError, match="other settings"):
         build_report(folder=tmp_path, **{**SMALL, "quick": False})
     assert _measured(build_report(folder=tmp_path, restart=True, **SMALL)) == _measured(ran)
+
+
+@pytest.mark.slow
+def test_the_report_on_dask_gives_the_pools_numbers(tmp_path):
+    pytest.importorskip("distributed")
+    from distributed import LocalCluster
+
+    on_pool = build_report(workers=2, **SMALL)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        on_dask = build_report(scheduler=cluster.scheduler_address, folder=tmp_path, **SMALL)
+    assert _measured(on_dask) == _measured(on_pool)
