@@ -138,23 +138,19 @@ def breakpoint_search(bp: Breakpoint, plan: ScorecardPlan) -> Search:
                                 plan.breakpoint_seeds, bp.value_range, plan.budget)
 
 
-def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan, search: Search | None = None,
-                   batch: Batch | None = None) -> dict[str, Any]:
+def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan,
+                   search: Search | None = None) -> dict[str, Any]:
     """One break point, or the reason there is none (the range does not bracket):
-    ``search`` done already, or run here (on ``batch``, else on ``plan.workers``)."""
+    ``search`` done already, or run here on ``plan.workers``."""
     if search is None:
         search = breakpoint_search(bp, plan)
-        if batch is None:
-            with Batch(plan.workers) as batch:
-                run_searches([(bp, search)], batch)
-        else:
+        with Batch(plan.workers) as batch:
             run_searches([(bp, search)], batch)
-    knob = search.knob
     res = search.result()
     row: dict[str, Any] = {"device": bp.device, "backend": bp.backend, "options": bp.options,
                            "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
                            "seeds": plan.breakpoint_seeds, "budget": plan.budget,
-                           "log": knob.log}
+                           "log": search.knob.log}
     if not res["found"]:  # not bracketed: a finding, reported as measured
         return {**row, "value": None, "note": res["note"], "evaluations": res["evaluations"],
                 "n_evaluations": res["n_evaluations"]}
@@ -172,10 +168,9 @@ def run_searches(searches: list[tuple[Breakpoint, Search]], batch: Batch) -> Non
             for k in search.bisection.pending:
                 value = search.grid[k]
                 options, idle = search.setting(value)
-                prefix = f"bp-{bp.device}-{bp.knob}={value}-"
-                tasks = [Task(prefix + t.key, t.fn, t.params) for t in scenario_tasks(
-                    search.scenario, search.backend, options, search.seeds, search.budget,
-                    idle)]
+                tasks = scenario_tasks(search.scenario, search.backend, options, search.seeds,
+                                       search.budget, idle,
+                                       prefix=f"bp-{bp.device}-{bp.knob}={value}-")
                 round_.append((search, value, options, idle, tasks))
         if not round_:
             return
@@ -195,9 +190,8 @@ def scorecard_tasks(plan: ScorecardPlan) -> dict[tuple[str, str], list[Task]]:
     own: dict[tuple[str, str], list[Task]] = {}
     for label, backend, options in plan.devices:
         for name in plan.scenarios:
-            own[label, name] = [Task(f"card-{label}-{t.key}", t.fn, t.params) for t in
-                                scenario_tasks(name, backend, options, plan.seeds,
-                                               plan.budget)]
+            own[label, name] = scenario_tasks(name, backend, options, plan.seeds,
+                                              plan.budget, prefix=f"card-{label}-")
     return own
 
 

@@ -57,9 +57,10 @@ PART_KEYS = ("size", "obstacles", "map", "scen", "planner", "max_steps", "eval_a
 
 def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
                    budget: str = "full", idle_s: float = 0.0,
-                   chips: Sequence[int] | None = None) -> list[Task]:
+                   chips: Sequence[int] | None = None, prefix: str = "") -> list[Task]:
     """The (run x seed) tasks of scenario ``name`` on the device (checked here); with
-    ``chips`` (chip seeds), the (chip x run x seed) tasks."""
+    ``chips`` (chip seeds), the (chip x run x seed) tasks; ``prefix`` starts every key
+    (tasks of several scenarios or devices in one run folder)."""
     scenario = get(name)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; allowed: {', '.join(BUDGETS)}")
@@ -71,7 +72,7 @@ def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
     if idle_s:
         base["idle_s"] = float(idle_s)
     on = [("", {})] if chips is None else [(f"-c{c}", {"chip": int(c)}) for c in chips]
-    return [Task(f"{run}{tag}-s{seed}", TASK_FN, {**base, **params, **chip, "seed": seed})
+    return [Task(f"{prefix}{run}{tag}-s{seed}", TASK_FN, {**base, **params, **chip, "seed": seed})
             for tag, chip in on for run, params in scenario.runs(BUDGETS[budget])
             for seed in range(int(seeds))]
 
