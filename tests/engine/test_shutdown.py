@@ -109,6 +109,30 @@ def test_a_stopped_command_leaves_no_process(command, sig, tmp_path):
             json.loads(p.read_text())
 
 
+@pytest.mark.slow
+def test_a_stopped_command_leaves_no_thread_to_race_the_exit(tmp_path):
+    """When a stopped command's interpreter finalizes, only its main thread is left: a
+    daemon thread woken then (tqdm's monitor was one) can abort the exit (SIGABRT)."""
+    code = ("import atexit, sys, threading\n"
+            "atexit.register(lambda: print([t.name for t in threading.enumerate()\n"
+            "                               if t is not threading.main_thread()]))\n"
+            + MAIN)
+    argv = [a.format(out=tmp_path / "out") for a in COMMANDS["sweep"]]
+    proc = subprocess.Popen([sys.executable, "-c", code, *argv, "--workers", "2"],
+                            cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True, text=True)
+    workers = []
+    try:
+        workers = _workers(proc)
+        os.kill(proc.pid, signal.SIGTERM)
+        out, err = proc.communicate(timeout=STOP_S)
+    finally:
+        _end(proc, workers)
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert out.strip() == "[]", out
+
+
 def test_a_pool_worker_dies_with_its_parent(tmp_path):
     """The parent of a worker is SIGKILLed: the worker ends within a second or two."""
     code = ("import os, time, sys\n"
