@@ -52,10 +52,14 @@ class Batch:
         if self._tmp is not None:
             self._tmp.cleanup()
 
-    def run(self, stage: str, tasks: list[Task]) -> dict[str, dict[str, Any]]:
-        """The results of ``tasks`` by key, as stage ``stage``."""
+    def run(self, stage: str, tasks: list[Task], part: str | None = None
+            ) -> dict[str, dict[str, Any]]:
+        """The results of ``tasks`` by key, as stage ``stage`` (its timings); ``part``: which
+        of the stage's batches this is, for the progress (each round of the break points'
+        bisection is a batch whose size is known only when it starts)."""
+        label = stage if part is None else f"{stage}, {part}"
         tick = None if self.progress is None else \
-            (lambda done, total: self.progress(stage, done, total))
+            (lambda done, total: self.progress(label, done, total))
         with timings.stage(stage):
             results = run_sweep(tasks, self.folder, progress=tick, settings=self.settings,
                                 restart=self.restart, pool=self.pool, group=device_group,

@@ -31,6 +31,7 @@ from an earlier run.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -162,7 +163,7 @@ def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan,
 def run_searches(searches: list[tuple[Breakpoint, Search]], batch: Batch) -> None:
     """Every search's bisection in lockstep: each round runs the evaluations every search
     has pending (its two ends first, then one middle value each) as one batch of tasks."""
-    while True:
+    for n in itertools.count(1):
         round_: list[tuple[Search, float, dict[str, Any], float, list[Task]]] = []
         for bp, search in searches:
             for k in search.bisection.pending:
@@ -174,7 +175,8 @@ def run_searches(searches: list[tuple[Breakpoint, Search]], batch: Batch) -> Non
                 round_.append((search, value, options, idle, tasks))
         if not round_:
             return
-        results = batch.run("breakpoints", [t for *_, tasks in round_ for t in tasks])
+        results = batch.run("breakpoints", [t for *_, tasks in round_ for t in tasks],
+                            part=f"round {n}")
         passed: dict[int, list[bool]] = {}
         for search, value, options, idle, tasks in round_:
             res = scenario_result(search.scenario, search.backend, options, search.seeds,

@@ -276,6 +276,7 @@ def test_a_killed_report_resumes_from_its_finished_tasks(tmp_path):
     for stage, done, total in seen:  # each stage's first call: the tasks kept
         first.setdefault(stage, total - done)
     assert sum(first.values()) == len(files[::2])  # only the removed tasks ran again
+    assert list(first) == ["systems", "scorecard", "breakpoints, round 1"]  # a bar a round
     with pytest.raises(InputError, match="other settings"):
         build_report(folder=tmp_path, **{**SMALL, "quick": False})
     assert _measured(build_report(folder=tmp_path, restart=True, **SMALL)) == _measured(ran)
