@@ -151,7 +151,7 @@ class CrossbarArray(SynapticArray):
         w_max = config.w_max_for(index) or config.w_headroom * float(np.abs(W).max()) or 1.0
         state = _new_state(W.shape, crossbar_params(config, w_max),
                            stream_key(int(seed), STREAM_DEVICE + int(index)))
-        xbar_program(state, W)
+        xbar_program(_without_acc(state), W)
         return cls(state, config, preset)
 
     def options(self) -> dict[str, Any]:
@@ -233,7 +233,7 @@ class CrossbarArray(SynapticArray):
         seconds = float(seconds)
         if not math.isfinite(seconds) or seconds < 0:
             raise InputError(f"elapsed time {seconds!r} is not allowed (allowed: seconds >= 0)")
-        xbar_elapse(self.state, seconds)
+        xbar_elapse(_without_acc(self.state), seconds)
 
     @property
     def w_max(self) -> float:
@@ -248,6 +248,17 @@ class CrossbarArray(SynapticArray):
     def conductances(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of (G+, G-) in micro-siemens."""
         return np.array(self.state.Gp), np.array(self.state.Gm)
+
+_NO_ACC = np.zeros((0, 0))
+
+
+def _without_acc(state: CrossbarState) -> CrossbarState:
+    """``state`` with an empty accumulator, sharing every other array: for programming and
+    drift, which never read it. The accumulator's layout follows the matrix's shape (row-major
+    if wide), so the full state is two Numba types; without it, one, and these kernels
+    compile once."""
+    return state._replace(acc=_NO_ACC)
+
 
 def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
     rows, cols = shape

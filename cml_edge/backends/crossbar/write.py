@@ -291,7 +291,7 @@ def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, 
 
 
 @kernel
-def _refresh_sweep(state, key, ctr):
+def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, ctr):
     """The open-loop refresh (``refresh_write`` open-loop): every pair read, device by
     device with noise; a pair whose reads cross the thresholds is RESET and the read
     difference written onto the device that read larger by one stochastic train pair.
@@ -299,11 +299,6 @@ def _refresh_sweep(state, key, ctr):
     cross them (:data:`~cml_edge.backends.crossbar.config.REFRESH_READ_SIGMAS`): the two
     read normals (G+, G-); for a refreshed pair
     the row train, the column train, then per pulse the c2c and write-noise normals."""
-    Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
-                                   state.wn)
-    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
-    c = state.counters
-    P = state.params
     rows, cols = Gp.shape
     rng = P.g_max - P.g_min
     sd = P.refresh_read_noise * rng
@@ -335,13 +330,12 @@ def _refresh_sweep(state, key, ctr):
             a, ctr = _pulse_train(p, bl, key, ctr)
             b, ctr = _pulse_train(p, bl, key, ctr)
             n = popcount(a & b)
-            live = stuck[big, i, j] == OK
+            G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if big == 0 else Gm[i, j],
+                                     stuck[big, i, j] == OK, big, i, j, True, n, key, ctr)
             if big == 0:
-                Gp[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j], live, 0, i, j,
-                                                True, n, key, ctr)
+                Gp[i, j] = G
             else:
-                Gm[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gm[i, j], live, 1, i, j,
-                                                True, n, key, ctr)
+                Gm[i, j] = G
             mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
             mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
             c[REFRESHES] += 1
@@ -349,23 +343,25 @@ def _refresh_sweep(state, key, ctr):
     return ctr
 
 
-@njit(cache=True, inline="always")
+@kernel
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
     pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
     G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
     then the write-noise normal (if ``write_noise``); a refresh then draws its
-    programming noise."""
+    programming noise. A kernel of its own, called once per written pair: inlined into
+    its two callers (for each layout of the state) it was most of a cold compile of the
+    crossbar's training loop (benchmarks/README.md, "The pulse path compiled once")."""
     if P.set_only:  # one device, up: G+ to raise w, G- to lower it
+        d = 0 if positive else 1
+        G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if positive else Gm[i, j],
+                                 stuck[d, i, j] == OK, d, i, j, True, n, key, ctr)
         if positive:
-            Gp[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j], stuck[0, i, j] == OK,
-                                            0, i, j, True, n, key, ctr)
-            mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+            Gp[i, j] = G
         else:
-            Gm[i, j], ctr = _pulse_device_n(P, step, wn, bnd, Gm[i, j], stuck[1, i, j] == OK,
-                                            1, i, j, True, n, key, ctr)
-            mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+            Gm[i, j] = G
+        mark_written(age, rn, nu, nu_z, P, d, i, j, G)
     else:
         noisy = P.dw_min_std != 0.0
         wnoisy = P.write_noise > 0.0
@@ -496,7 +492,7 @@ def pulsed_update(state, post, pre, lr):
                 ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, i, j,
                                   n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
     if P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
-        ctr = _refresh_sweep(state, key, ctr)
+        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, ctr)
     state.rng[1] = ctr
     per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
     c[RNG_DRAWS] += np.int64(ctr - start)
@@ -650,7 +646,8 @@ def commit_accumulated(state):
             mark_written(age, rn, nu, nu_z, P, 0, i, j, tp)
             mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
     if pulse and P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
-        ctr = _refresh_sweep(state, key, ctr)
+        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P,
+                             key, ctr)
     state.rng[1] = ctr
     c = counters
     c[RNG_DRAWS] += np.int64(ctr - start)
