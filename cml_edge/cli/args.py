@@ -23,10 +23,9 @@ from cml_edge.backends.fields import field_names, range_text, scalar_kind
 from cml_edge.errors import InputError
 
 tqdm.monitor_interval = 0
-"""No tqdm monitor thread: it is a daemon thread that tqdm wakes at exit, and a daemon
-thread taking the interpreter lock while the interpreter finalizes can abort it
-(CPython 3.11: a stopped ``sweep`` once exited by SIGABRT instead of 128 + 15). The
-monitor only speeds up bars that stall; ours are redrawn by their own updates."""
+"""No tqdm monitor thread: a daemon thread, which tqdm wakes at exit while the
+interpreter finalizes. The monitor only speeds up bars that stall; ours are redrawn by
+their own updates."""
 
 INT64_MAX = 2**63 - 1
 SEED_MAX = 2**62

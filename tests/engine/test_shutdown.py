@@ -15,7 +15,7 @@ import pytest
 psutil = pytest.importorskip("psutil")
 
 ROOT = Path(__file__).resolve().parents[2]
-MAIN = "import sys; from cml_edge.cli import main; sys.exit(main(sys.argv[1:]))"
+MAIN = "from cml_edge.cli import run; run()"  # the cml-edge program
 COMMANDS = {
     "scenario": ["scenario", "paper", "--backend", "crossbar", "--seeds", "8", "--out",
                  "{out}"],  # long enough to be running when the signal comes
@@ -107,30 +107,6 @@ def test_a_stopped_command_leaves_no_process(command, sig, tmp_path):
     for p in set(written) - set(temporary):
         if p.suffix == ".json":
             json.loads(p.read_text())
-
-
-@pytest.mark.slow
-def test_a_stopped_command_leaves_no_thread_to_race_the_exit(tmp_path):
-    """When a stopped command's interpreter finalizes, only its main thread is left: a
-    daemon thread woken then (tqdm's monitor was one) can abort the exit (SIGABRT)."""
-    code = ("import atexit, sys, threading\n"
-            "atexit.register(lambda: print([t.name for t in threading.enumerate()\n"
-            "                               if t is not threading.main_thread()]))\n"
-            + MAIN)
-    argv = [a.format(out=tmp_path / "out") for a in COMMANDS["sweep"]]
-    proc = subprocess.Popen([sys.executable, "-c", code, *argv, "--workers", "2"],
-                            cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True, text=True)
-    workers = []
-    try:
-        workers = _workers(proc)
-        os.kill(proc.pid, signal.SIGTERM)
-        out, err = proc.communicate(timeout=STOP_S)
-    finally:
-        _end(proc, workers)
-    assert proc.returncode == 128 + signal.SIGTERM, err
-    assert out.strip() == "[]", out
 
 
 def test_a_pool_worker_dies_with_its_parent(tmp_path):
