@@ -131,7 +131,7 @@ def run() -> None:
     (status 128 + a signal's number: its workers ended, its files whole) exits at once,
     without the interpreter's finalization: that finalization aborted a stopped ``sweep``
     with SIGABRT ("Fatal Python error: PyThreadState_Get", CPython 3.11) in two of three
-    test runs of its stop tests on a loaded machine."""
+    full CI runs, with no Python thread left but the main one."""
     code = main()
     if code > 128:
         sys.stdout.flush()

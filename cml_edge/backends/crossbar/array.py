@@ -249,6 +249,7 @@ class CrossbarArray(SynapticArray):
         """Copies of (G+, G-) in micro-siemens."""
         return np.array(self.state.Gp), np.array(self.state.Gm)
 
+
 _NO_ACC = np.zeros((0, 0))
 
 

@@ -351,8 +351,9 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
     G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
     then the write-noise normal (if ``write_noise``); a refresh then draws its
     programming noise. A kernel of its own, called once per written pair: inlined into
-    its two callers (for each layout of the state) it was most of a cold compile of the
-    crossbar's training loop (benchmarks/README.md, "The pulse path compiled once")."""
+    its two callers, each compiled for both layouts of the state, it was most of
+    ``commit_accumulated``'s compile time (benchmarks/README.md, "The pulse path compiled
+    once")."""
     if P.set_only:  # one device, up: G+ to raise w, G- to lower it
         d = 0 if positive else 1
         G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if positive else Gm[i, j],
