@@ -343,17 +343,16 @@ def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, c
     return ctr
 
 
-@kernel
+@njit(cache=True, inline="always")
 def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
     pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
     G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
     then the write-noise normal (if ``write_noise``); a refresh then draws its
-    programming noise. A kernel of its own, called once per written pair: inlined into
-    its two callers, each compiled for both layouts of the state, it was most of
-    ``commit_accumulated``'s compile time (benchmarks/README.md, "The pulse path compiled
-    once")."""
+    programming noise. Inlined into :func:`pulsed_update`, whose per-step update writes
+    few pulses per pair (a call per pair took half its time); the commit calls it
+    through :func:`_pulse_pair_call`."""
     if P.set_only:  # one device, up: G+ to raise w, G- to lower it
         d = 0 if positive else 1
         G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if positive else Gm[i, j],
@@ -391,6 +390,16 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
         ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
                             ctr)
     return ctr
+
+
+@kernel
+def _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
+                     positive, key, ctr):
+    """:func:`_pulse_pair` compiled once, as a call: the commit sends many pulses per pair,
+    and the pulse path inlined into it, compiled for both layouts of the state, was most of
+    its compile time (benchmarks/README.md, "The pulse path compiled once")."""
+    return _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j,
+                       n, positive, key, ctr)
 
 
 # write-verify ---------------------------------------------------------------------------
@@ -622,8 +631,8 @@ def commit_accumulated(state):
                     n = P.pulse_cap if n > 0 else -P.pulse_cap
                 written += per_pair
                 pulses += per_pair * abs(n)
-                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters,
-                                  P, i, j, abs(n), n > 0, key, ctr)
+                ctr = _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z,
+                                       counters, P, i, j, abs(n), n > 0, key, ctr)
                 continue
             written += 2
             tp = Gp[i, j] + delta
