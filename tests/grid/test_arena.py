@@ -58,6 +58,26 @@ def test_geodesic_bfs():
     assert d[4, 4] == -1 and d[1, 5] == 5
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 14), st.integers(0, 2**31 - 1), st.floats(0.0, 0.6))
+def test_geodesic_is_the_shortest_path_length(n, seed, density):
+    """BFS distances satisfy their definition on cluttered arenas: 0 at the source, and
+    every other free cell is 1 + the least distance of its reachable neighbours, or -1
+    (unreachable) exactly when no neighbour is reachable; blocked cells stay -1."""
+    arena = GridArena.with_obstacles(n, min(n * n - 2, int(density * n * n)), seed)
+    free = np.argwhere(~arena.blocked)
+    sx, sy = free[seed % len(free)]
+    d = arena.geodesic((sx, sy))
+    assert d[sx, sy] == 0 and (d[arena.blocked] == -1).all()
+    for x, y in free:
+        if (x, y) == (sx, sy):
+            continue
+        near = [d[x + dx, y + dy] for dx, dy in MOVES
+                if arena.is_free((x + dx, y + dy)) and d[x + dx, y + dy] >= 0]
+        assert d[x, y] == (1 + min(near) if near else -1)
+    assert (arena.geodesic((-1, 0)) == -1).all() and (arena.geodesic((n, n - 1)) == -1).all()
+
+
 @pytest.mark.parametrize("size", [1, 0, -3, 2.5, True])
 def test_bad_sizes(size):
     with pytest.raises(ValueError, match="arena size"):
