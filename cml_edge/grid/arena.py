@@ -153,10 +153,9 @@ class GridArena:
 @njit(cache=True)
 def bfs_distances(free, sx, sy, dist, queue):
     """Breadth-first search from the free cell (sx, sy) over the free cells, by the 8 king
-    moves: dist[x, y] = the fewest moves to (x, y), left as it is (-1) where no path
-    reaches; ``queue``: int64 (cells, 2) scratch. Compiled: a maps or clutter scenario asks
-    for hundreds of these per evaluation, which took most of its time in Python."""
-    n = free.shape[0]
+    moves (:func:`available_moves`): dist[x, y] = the fewest moves to (x, y), left as it
+    is (-1) where no path reaches; ``queue``: int64 (cells, 2) scratch."""
+    mask = np.zeros(N_ACTIONS, np.uint8)
     dist[sx, sy] = 0
     queue[0, 0] = sx
     queue[0, 1] = sy
@@ -166,10 +165,11 @@ def bfs_distances(free, sx, sy, dist, queue):
         x = queue[head, 0]
         y = queue[head, 1]
         head += 1
+        available_moves(free, x, y, mask)
         for a in range(N_ACTIONS):
             nx = x + MOVES[a, 0]
             ny = y + MOVES[a, 1]
-            if 0 <= nx < n and 0 <= ny < n and free[nx, ny] != 0 and dist[nx, ny] < 0:
+            if mask[a] and dist[nx, ny] < 0:
                 dist[nx, ny] = dist[x, y] + 1
                 queue[tail, 0] = nx
                 queue[tail, 1] = ny

@@ -395,9 +395,10 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
 @kernel
 def _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
                      positive, key, ctr):
-    """:func:`_pulse_pair` compiled once, as a call: the commit sends many pulses per pair,
-    and the pulse path inlined into it, compiled for both layouts of the state, was most of
-    its compile time (benchmarks/README.md, "The pulse path compiled once")."""
+    """:func:`_pulse_pair` compiled once, as the commit's call per written pair: inlined into
+    the commit, compiled for both layouts of the state, it was most of the commit's compile
+    time; the call costs the per-walk training step 2-11 % (benchmarks/README.md, "The
+    pulse path compiled once")."""
     return _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j,
                        n, positive, key, ctr)
 
