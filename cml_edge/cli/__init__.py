@@ -46,7 +46,7 @@ from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields, show_profile
 from cml_edge.core.finite import NonFiniteError, check_finite, dumps
 from cml_edge.engine import limits, timings
-from cml_edge.engine.stop import interrupt_behind, stop_on_signals, stop_signal
+from cml_edge.engine.stop import interrupt_behind, raise_if_stopped, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
 COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export, lava)
@@ -95,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
             hold_estimate(limits.check(args))  # refuses what will not fit; said at the start
             with announce_compiles(args), timings.recording() as recorded:
                 result = args.run(args)
+            raise_if_stopped()  # a stop that a finalizer swallowed is still a stop
             times = recorded.to_dict()
             text = None
             if getattr(args, "json", False):
@@ -102,6 +103,12 @@ def main(argv: list[str] | None = None) -> int:
                     result = {**result, "timings": times}
                 text = dumps(result)
             check_finite(result)
+            if text is not None:  # inside: a stop while printing is a stop, not a kill
+                print(text)
+            else:
+                getattr(args, "show", show_fields)(result)
+            if args.profile:
+                show_profile(times, sys.stderr)
     except InputError as exc:  # bad input only: any other exception is a bug, not hidden
         print(f"cml-edge: error: {exc}", file=sys.stderr)
         return 2
@@ -117,12 +124,6 @@ def main(argv: list[str] | None = None) -> int:
         return 128 + sig
     finally:
         hold_estimate(None)
-    if text is not None:
-        print(text)
-    else:
-        getattr(args, "show", show_fields)(result)
-    if args.profile:
-        show_profile(times, sys.stderr)
     return 0
 
 

@@ -34,12 +34,15 @@ CHUNK_STEPS = 100_000
 1 s at the slowest device's 10 us a step, benchmarks/README.md)."""
 
 
-def chunks(start: int, end: int, steps: int) -> list[tuple[int, int]]:
+def chunks(start: int, end: int, steps: int) -> Iterator[tuple[int, int]]:
     """Ranges (a, b) covering items ``start .. end - 1`` (walks or trials of up to ``steps``
     steps each) in order, each of at most :data:`CHUNK_STEPS` steps but one item at
-    least."""
+    least; before each, a stop request that was swallowed is raised again
+    (:func:`raise_if_stopped`)."""
     per = max(1, CHUNK_STEPS // max(int(steps), 1))
-    return [(a, min(a + per, end)) for a in range(start, end, per)]
+    for a in range(start, end, per):
+        raise_if_stopped()
+        yield a, min(a + per, end)
 
 
 class Stopped(KeyboardInterrupt):
@@ -50,22 +53,44 @@ class Stopped(KeyboardInterrupt):
         self.signum = signum
 
 
+_noted: list[int] = []  # the signals that asked for a stop inside stop_on_signals
+
+
+def _stop_request(signum: int) -> KeyboardInterrupt:
+    return Stopped(signum) if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
 def _raise_stopped(signum: int, frame: object) -> None:
-    raise Stopped(signum)
+    _noted.append(signum)
+    raise _stop_request(signum)
+
+
+def raise_if_stopped() -> None:
+    """Raise the stop request again if one came inside :func:`stop_on_signals` and was
+    swallowed: Python runs a signal's handler in whatever code runs at that moment, and an
+    exception raised inside a finalizer (``__del__``, which Numba's compiler runs by the
+    thousand) is printed as "Exception ignored" and dropped. Called between the chunks of
+    the compiled loops (:func:`chunks`) and after a command's work."""
+    if _noted:
+        raise _stop_request(_noted[0])
 
 
 @contextmanager
 def stop_on_signals() -> Iterator[None]:
-    """SIGTERM raises :class:`Stopped` in the main thread while inside (SIGINT raises
-    ``KeyboardInterrupt`` as always); elsewhere than the main thread, nothing changes."""
+    """SIGTERM raises :class:`Stopped` and SIGINT ``KeyboardInterrupt`` in the main thread
+    while inside, each noted for :func:`raise_if_stopped`; elsewhere than the main thread,
+    nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = signal.signal(signal.SIGTERM, _raise_stopped)
+    _noted.clear()
+    old = {s: signal.signal(s, _raise_stopped) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        _noted.clear()
 
 
 def stop_signal(exc: KeyboardInterrupt) -> signal.Signals:
@@ -109,7 +134,7 @@ def signals_held() -> Iterator[None]:
         for s, handler in old.items():
             signal.signal(s, handler)
     if noted:
-        raise Stopped(noted[0]) if noted[0] == signal.SIGTERM else KeyboardInterrupt
+        raise _stop_request(noted[0])
 
 
 def worker_init(parent: int) -> None:

@@ -1,6 +1,10 @@
 """Compiled loops called in chunks (so a stop request is handled within about a second)
 give exactly what one call gives: weights, counters, errors and plans, on a noisy device."""
 
+import os
+import signal
+import sys
+
 import numpy as np
 import pytest
 
@@ -18,9 +22,9 @@ from cml_edge.robot.training import RobotTrainConfig, train_robot
 
 
 def test_chunks_cover_the_range_in_order_with_one_item_at_least():
-    assert chunks(3, 10, CHUNK_STEPS // 3) == [(3, 6), (6, 9), (9, 10)]
-    assert chunks(0, 3, 10 * CHUNK_STEPS) == [(0, 1), (1, 2), (2, 3)]
-    assert chunks(5, 5, 1) == []
+    assert list(chunks(3, 10, CHUNK_STEPS // 3)) == [(3, 6), (6, 9), (9, 10)]
+    assert list(chunks(0, 3, 10 * CHUNK_STEPS)) == [(0, 1), (1, 2), (2, 3)]
+    assert list(chunks(5, 5, 1)) == []
 
 
 def _same(a: CML, b: CML) -> None:
@@ -65,3 +69,24 @@ def test_robot_training_and_driving_in_chunks_are_one_call(monkeypatch):
     assert np.array_equal(ia["train_error"], ib["train_error"])
     assert np.array_equal(ra.actions, rb.actions)
     assert np.array_equal(ra.poses, rb.poses, equal_nan=True)
+
+
+def test_a_stop_swallowed_by_a_finalizer_is_raised_again_before_the_next_chunk(monkeypatch):
+    """Python runs a signal's handler in whatever code runs; inside a finalizer the stop is
+    printed as "Exception ignored" and dropped. The next chunk raises it again."""
+    swallowed = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: swallowed.append(u.exc_type))
+
+    class Finalized:
+        def __del__(self) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            sum(range(1000))  # the handler runs here, inside the finalizer
+
+    with stop.stop_on_signals():
+        walks = chunks(0, 3, CHUNK_STEPS)
+        assert next(walks) == (0, 1)
+        Finalized()
+        assert swallowed == [stop.Stopped]
+        with pytest.raises(stop.Stopped):
+            next(walks)
+    assert not stop._noted  # a later command starts clean

@@ -16,14 +16,15 @@ psutil = pytest.importorskip("psutil")
 
 ROOT = Path(__file__).resolve().parents[2]
 MAIN = "from cml_edge.cli import run; run()"  # the cml-edge program
-COMMANDS = {
-    "scenario": ["scenario", "paper", "--backend", "crossbar", "--seeds", "8", "--out",
-                 "{out}"],  # long enough to be running when the signal comes
-    "sweep": ["sweep", "convergence", "--seeds", "4", "--out", "{out}"],
-    "emulate": ["emulate", "--backend", "crossbar", "--chips", "4", "--seeds", "1",
+COMMANDS = {  # each long enough to be running when the signal comes: 20 s or more on two
+    # warm workers (a command that has ended by then dies of SIGTERM's default action)
+    "scenario": ["scenario", "paper", "--backend", "crossbar", "--seeds", "200", "--out",
+                 "{out}"],
+    "sweep": ["sweep", "convergence", "--seeds", "1000", "--out", "{out}"],
+    "emulate": ["emulate", "--backend", "crossbar", "--chips", "400", "--seeds", "1",
                 "--walks", "30", "--chips-out", "{out}"],
     "breakpoint": ["breakpoint", "--knob", "read_noise", "--scenario", "paper", "--backend",
-                   "crossbar", "--budget", "tiny", "--out", "{out}"],
+                   "crossbar", "--seeds", "100", "--out", "{out}"],
     "report": ["report", "--quick", "--out", "{out}"],
 }
 STOP_S = 10  # "within a few seconds", with room for a loaded machine
