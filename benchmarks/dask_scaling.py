@@ -1,6 +1,6 @@
 """Many chips on a Dask cluster of local workers: throughput, and the same results as the pool.
 
-    python benchmarks/dask_scaling.py [--chips 100] [--workers 1 2 4] [--json]
+    python benchmarks/dask_scaling.py [--chips 100] [--workers 1 2 4] [--json] [-- OPTION ...]
 
 The sweep is ``cml-edge emulate --backend crossbar --chips N --seeds 1`` (the ``pcm``
 preset, the full protocol per chip: 100 walks x 900 steps, 100 pairs, one model seed),
@@ -8,7 +8,9 @@ run through the command itself (:func:`cml_edge.cli.main` with ``--json``). It r
 on the local process pool (``--workers 2``, no scheduler): the reference. Then, for each n
 of ``--workers``, a :class:`distributed.LocalCluster` of n worker processes, one thread each,
 is started, the same sweep runs on it (``--scheduler ADDRESS``), and the cluster is closed.
-Every run writes to a fresh ``--chips-out`` folder (in a temporary folder removed at the
+Options after ``--`` go to every run of ``emulate`` (a smaller training per chip for a
+sweep of many chips, e.g. ``-- --walks 30 --trials 25``). Every run writes to a fresh
+``--chips-out`` folder (in a temporary folder removed at the
 end), so nothing is resumed.
 
 Each run is checked against the reference: its JSON and every chip's task file, minus
@@ -107,9 +109,12 @@ def main() -> None:
     p.add_argument("--chips", type=int, default=100)
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2, 4])
     p.add_argument("--json", action="store_true")
+    p.add_argument("options", nargs=argparse.REMAINDER,
+                   help="after --: more options of every emulate run")
     args = p.parse_args()
+    options = args.options[1:] if args.options[:1] == ["--"] else args.options
     with tempfile.TemporaryDirectory(prefix="dask-scaling-") as folder:
-        rows = measure(args.chips, args.workers, Path(folder))
+        rows = measure(args.chips, args.workers, Path(folder), options)
     if args.json:
         print(json.dumps(rows, indent=1))
         return

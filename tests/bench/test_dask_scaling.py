@@ -1,6 +1,7 @@
 """benchmarks/dask_scaling.py: the chips on a LocalCluster of 1 and 2 worker processes give
 the pool's results, its JSON and every chip's task file."""
 
+import sys
 
 import pytest
 
@@ -24,3 +25,15 @@ def test_dask_workers_give_the_pools_results(tmp_path, script):
     assert all(r["identical"] for r in rows), rows
     assert sorted(p.name for p in (tmp_path / "dask-2" / "tasks").iterdir()) == [
         "chip-000000.json", "chip-000001.json", "chip-000002.json"]
+
+
+def test_options_after_the_separator_go_to_every_run(script, monkeypatch, capsys):
+    dask_scaling = script(SCRIPT)
+    seen = []
+    monkeypatch.setattr(dask_scaling, "measure",
+                        lambda chips, workers, folder, options: seen.append(
+                            (chips, workers, options)) or [])
+    monkeypatch.setattr(sys, "argv", [SCRIPT, "--chips", "7", "--workers", "2", "--json",
+                                      "--", "--walks", "30", "--trials", "25"])
+    dask_scaling.main()
+    assert seen == [(7, [2], ["--walks", "30", "--trials", "25"])]
