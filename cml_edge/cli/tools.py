@@ -50,7 +50,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--out", required=True, metavar="FOLDER",
                    help="report folder (report.md, report.json, figures)")
     p.add_argument("--quick", action="store_true",
-                   help="few seeds and trials: minutes instead of the full protocol")
+                   help="every section on 2 seeds at the quick budget (30 walks, 50 "
+                        "pairs): a fraction of the full protocol's time")
     p.add_argument("--dqn-results", default=None, metavar="FILE",
                    help="DQN baseline results written by 'cml-edge dqn' (default: the "
                         "repository's hw_reports/baselines/dqn_results.json)")

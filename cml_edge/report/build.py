@@ -54,22 +54,27 @@ from cml_edge.io.files import display_path
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
+from cml_edge.scenarios.registry import BUDGETS
 
 SCHEMA_VERSION = 2
 """2: the scorecard, break points and recovery curves."""
 N_EXAMPLES = 3
 
 def _profile(quick: bool) -> dict[str, int]:
-    return {"seeds": 2, "trials": 25, "sweep_seeds": 2} if quick else \
-        {"seeds": 10, "trials": 100, "sweep_seeds": 5}
+    """Every section's budget (:data:`cml_edge.scenarios.registry.BUDGETS`): the paper's
+    protocol on 10 seeds (5 per sweep point), or the quick budget on 2."""
+    b = BUDGETS["quick" if quick else "full"]
+    return {"walks": b.walks, "steps": b.steps, "trials": b.trials,
+            **({"seeds": 2, "sweep_seeds": 2} if quick else {"seeds": 10, "sweep_seeds": 5})}
 
 
 def measure_operations(backend: str, options: dict[str, Any], explore: str = "random",
-                       trials: int = 100) -> dict[str, Any]:
-    """One model trained and planned operation by operation: counters per phase, priced
-    by the device's cost model (a sweep task: JSON in, JSON out)."""
+                       trials: int = 100, walks: int = 100, steps: int = 900) -> dict[str, Any]:
+    """One model trained (``walks`` x ``steps``) and planned (``trials`` pairs) operation by
+    operation: counters per phase, priced by the device's cost model (a sweep task: JSON
+    in, JSON out)."""
     arena = GridArena.empty(30)
-    config = TrainConfig(explore=explore)
+    config = TrainConfig(walks, steps, explore=explore)
     training = Training(arena, config, CMLConfig.for_arena(30), backend, options,
                         default_path(backend, config.schedule, options, counted=True))
     run = train_and_evaluate(0, training, [Evaluation(arena, draw_pairs(arena, trials,
@@ -95,10 +100,12 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
 OPERATIONS_TASK = "cml_edge.report.build:measure_operations"
 
 
-def system_protocol(backend: str, options: dict[str, Any], seeds: int, trials: int) -> Protocol:
-    """The protocol a system of the report is scored on: the paper's, a curve point every
-    walk."""
-    return Protocol(backend, range(seeds), trials, epoch=1, backend_options=options)
+def system_protocol(backend: str, options: dict[str, Any], prof: dict[str, int]) -> Protocol:
+    """The protocol a system of the report is scored on: the paper's at the budget of
+    :func:`_profile` ``prof``, a curve point every walk."""
+    return Protocol(backend, range(prof["seeds"]), prof["trials"],
+                    train=TrainConfig(prof["walks"], prof["steps"]), epoch=1,
+                    backend_options=options)
 
 
 def protocol_tasks(prefix: str, protocol: Protocol) -> list[Task]:
@@ -239,14 +246,15 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     sweeps = [s for s in (report_sweeps() if sweeps is None else sweeps) if s[2] in BACKENDS]
     plan = scorecard or ScorecardPlan.of(quick)
     settings = {"run": "report", "quick": quick, "systems": systems, "sweeps": sweeps}
-    sys_protocols = [(f"system-{label}", system_protocol(backend, opts, prof["seeds"],
-                                                         prof["trials"]))
+    sys_protocols = [(f"system-{label}", system_protocol(backend, opts, prof))
                      for label, backend, opts in systems]
-    sweep_protocols = [(f"sweep-{label}", Protocol(backend, range(prof["sweep_seeds"]),
-                                                   prof["trials"], backend_options=opts))
-                       for _, label, backend, opts in sweeps]
+    sweep_protocols = [(f"sweep-{label}", Protocol(
+        backend, range(prof["sweep_seeds"]), prof["trials"],
+        train=TrainConfig(prof["walks"], prof["steps"]), backend_options=opts))
+        for _, label, backend, opts in sweeps]
     ops_tasks = [Task(f"operations-{label}", OPERATIONS_TASK,
-                      {"backend": backend, "options": opts})
+                      {"backend": backend, "options": opts, "trials": prof["trials"],
+                       "walks": prof["walks"], "steps": prof["steps"]})
                  for label, backend, opts in systems]
     with Batch(workers or plan.workers, scheduler, folder, settings, progress,
                restart) as batch:
@@ -271,7 +279,8 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         "generated": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "versions": _versions(),
         "machine": {"platform": platform.platform(), "cpus": os.cpu_count()},
-        "protocol": {"arena": 30, "walks": 100, "steps": 900, "seeds": prof["seeds"],
+        "protocol": {"arena": 30, "walks": prof["walks"], "steps": prof["steps"],
+                     "seeds": prof["seeds"],
                      "trials": prof["trials"], "eval_seed": EVAL_SEED, "max_steps": 100},
         "systems": rows + dqn,
         "dqn_results_file": display_path(dqn_results) if dqn_data is not None else None,

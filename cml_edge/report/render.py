@@ -54,7 +54,7 @@ def render_markdown(report: dict[str, Any], figures: dict[str, str]) -> str:
         f"cml-edge {v['cml_edge']}, Python {v['python']}, NumPy {v['numpy']}, "
         f"Numba {v['numba']}, SciPy {v['scipy']}; {report['machine']['cpus']} CPUs "
         f"({report['machine']['platform']}). The report took {fmt(report['wall_time_s'])} s."
-        + (" Quick profile: few seeds and trials; regenerate without --quick for the "
+        + (" Quick profile: 2 seeds at the quick budget; regenerate without --quick for the "
            "reference figures." if report["quick"] else ""),
         "",
         f"Protocol: {p['arena']} x {p['arena']} arena, {p['walks']} walks x {p['steps']} steps, "
