@@ -231,11 +231,11 @@ class Workers:
     def run(self, todo: list[Task], finish: Callable[[str, dict[str, Any]], None],
             group: Callable[[Task], Any] | None = None) -> None:
         """Run ``todo``, calling ``finish(key, document)`` here as each task ends. A lone
-        task runs in this process unless a pool is up already. ``group(task)``: the
-        tasks of one group compile the same kernels, so on a local pool only each group's
-        first task is queued at first (the groups' first tasks spread over the workers,
-        each compiling its own group's kernels) and the rest of a group once its first
-        has ended; None (or no ``group``) queues a task at once."""
+        task runs in this process unless a pool is up already. ``group(task)``: which
+        kernels a task compiles, as one group or a tuple of nested ones, coarse to fine
+        (:class:`_Gates`: on a local pool a group's first task is queued at first and the
+        rest of it once that one has ended); None (or no ``group``) queues a task at
+        once."""
         if self.scheduler is not None:
             _run_dask(todo, self.scheduler, finish)
         elif self.n == 1 or (len(todo) == 1 and self._pool is None):
@@ -255,33 +255,65 @@ class Workers:
                                              initargs=(os.getpid(),))
         pool = self._pool
         futures: dict[Future, Task] = {}
-        held: dict[Any, list[Task]] = {}  # group -> its tasks waiting for its first
-        firsts: dict[str, Any] = {}  # the key of each group's first task -> its group
+        gates = _Gates(group)
 
         def submit(batch: list[Task]) -> None:
             with signals_held():  # the workers are forked here (module stop)
                 for task in batch:
                     futures[pool.submit(run_task, task)] = task
 
-        now = []
-        for task in todo:
-            g = None if group is None else group(task)
-            if g is None:
-                now.append(task)
-            elif g in held:
-                held[g].append(task)
-            else:
-                held[g] = []
-                firsts[task.key] = g
-                now.append(task)
-        submit(now)
+        submit(gates.ready(todo))
         while futures:
             done, _ = wait(futures, return_when=FIRST_COMPLETED)
             for fut in done:
                 task = futures.pop(fut)
                 finish(*fut.result())
-                if task.key in firsts:
-                    submit(held.pop(firsts[task.key]))
+                submit(gates.ended(task))
+
+
+class _Gates:
+    """Which tasks may be queued, so that two workers do not compile the same kernels at
+    once. ``group(task)`` names the kernels a task compiles as a path of groups, coarse to
+    fine (the report's: the device and its number type, then the kind of run,
+    :func:`cml_edge.report.batch.device_group`); a task compiles what each group of its
+    path holds that the groups above do not. The first task of a group is queued (the
+    first tasks of several groups spread over the workers, each compiling its own
+    group's kernels); the other tasks of the group wait until it has ended, then pass on
+    to the next group of their path (a robot run waits for the device's first task, then
+    for the first robot run on that device)."""
+
+    def __init__(self, group: Callable[[Task], Any] | None) -> None:
+        self.group = group
+        self.started: set[tuple] = set()  # groups whose first task is queued
+        self.open: set[tuple] = set()  # groups whose first task has ended
+        self.held: dict[tuple, list[Task]] = {}  # group -> its tasks waiting
+        self.firsts: dict[str, list[tuple]] = {}  # a task's key -> the groups it opens
+
+    def _path(self, task: Task) -> tuple:
+        g = None if self.group is None else self.group(task)
+        return () if g is None else g if isinstance(g, tuple) else (g,)
+
+    def ready(self, tasks: list[Task]) -> list[Task]:
+        """Of ``tasks``, those to queue now; the rest are held."""
+        now = []
+        for task in tasks:
+            path = self._path(task)
+            shut = [path[:i] for i in range(1, len(path) + 1) if path[:i] not in self.open]
+            if not shut:
+                now.append(task)
+            elif shut[0] in self.started:
+                self.held.setdefault(shut[0], []).append(task)
+            else:  # the first task of this group and of every group below it on its path
+                self.started.update(shut)
+                self.firsts[task.key] = shut
+                now.append(task)
+        return now
+
+    def ended(self, task: Task) -> list[Task]:
+        """The tasks to queue now that ``task`` has ended."""
+        opened = self.firsts.pop(task.key, [])
+        self.open.update(opened)
+        return self.ready([t for g in opened for t in self.held.pop(g, [])])
 
 
 def end_pool(pool: ProcessPoolExecutor) -> None:

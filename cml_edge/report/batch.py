@@ -5,25 +5,42 @@ its worker processes compile or load each kernel once, not once per scenario; ea
 (:meth:`Batch.run`) is a sweep (:func:`~cml_edge.engine.sweep.run_sweep`) of the stage's
 tasks into the report's run folder, each task's result kept there as it ends, so a report
 run again into the same folder resumes from every task that had ended. Tasks are grouped
-by device (:func:`device_group`): on a local pool each device's first task runs first,
-spread over the workers, and the rest of its tasks once its kernels are compiled.
+by device, then by run (:func:`device_group`): on a local pool each device's first task
+runs first, spread over the workers, and the rest of its tasks once its kernels are
+compiled; of those, each kind of run's first, then the rest of that kind.
 """
 
 from __future__ import annotations
 
+import json
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from cml_edge.backends import backend_spec
 from cml_edge.engine import timings
 from cml_edge.engine.sweep import Task, Workers, run_sweep
 
+_NOT_KERNELS = ("seed", "backend", "backend_options", "options")
+"""Task parameters that choose no kernel (the device's are in the first group)."""
 
-def device_group(task: Task) -> str:
-    """The backend a task runs on: what decides the kernels it compiles (the presets of a
-    backend share them)."""
-    return task.params.get("protocol", task.params)["backend"]
+
+def _run_kind(params: dict[str, Any]) -> dict[str, Any]:
+    return {k: _run_kind(v) if isinstance(v, dict) else v for k, v in params.items()
+            if k not in _NOT_KERNELS}
+
+
+def device_group(task: Task) -> tuple[tuple[str, str | None], str]:
+    """The kernels a task compiles (:meth:`~cml_edge.engine.sweep.Workers.run`'s group):
+    those of the device it runs on and its number type (int8, int16 and fixed share the
+    fixed-point kernels, the presets of a crossbar the crossbar's), then those of the kind
+    of run (world, schedule, planner, arena: its parameters but the seed and the
+    device's), so two seeds of a robot run, or two presets' robot runs, do not compile
+    the robot's loops at once."""
+    spec = backend_spec(task.params.get("protocol", task.params)["backend"])
+    return ((spec.device.name, spec.options.get("dtype")),
+            json.dumps(_run_kind(task.params), sort_keys=True, default=str))
 
 
 class Batch:

@@ -116,3 +116,22 @@ def test_workers_kept_for_several_sweeps_are_the_same_processes(tmp_path):
     assert [r["i"] for r in (*first.values(), *second.values())] == list(range(6))
     with pytest.raises(InputError):
         Workers(0)
+
+
+def test_a_group_waits_for_its_first_task_level_by_level():
+    """The first task of each group is queued; the rest of a group once it has ended, then
+    each waits for the first task of its finer group (no two workers compile alike)."""
+    from cml_edge.engine.sweep import _Gates
+
+    paths = {"a": ("b1", "robot"), "b": ("b1", "robot"), "c": ("b1", "grid"),
+             "c2": ("b1", "grid"), "d": ("b2", "grid"), "e": None, "f": "b2"}
+    tasks = {k: Task(k, f"{__name__}:whoami", {"i": 0}) for k in paths}
+    gates = _Gates(lambda t: paths[t.key])
+    keys = lambda batch: [t.key for t in batch]  # noqa: E731
+    assert keys(gates.ready(list(tasks.values()))) == ["a", "d", "e"]
+    assert keys(gates.ended(tasks["e"])) == []
+    assert keys(gates.ended(tasks["a"])) == ["b", "c"]  # b: its robot group is open
+    assert keys(gates.ended(tasks["b"])) == []
+    assert keys(gates.ended(tasks["c"])) == ["c2"]
+    assert keys(gates.ended(tasks["d"])) == ["f"]
+    assert keys(_Gates(None).ready(list(tasks.values()))) == list(paths)

@@ -143,6 +143,19 @@ def test_schema(report):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow
+def test_the_quick_report_runs_every_section_at_the_quick_budget(report):
+    from cml_edge.scenarios.registry import BUDGETS
+
+    rep, _ = report
+    quick = BUDGETS["quick"]
+    assert (rep["protocol"]["walks"], rep["protocol"]["steps"], rep["protocol"]["trials"]) == (
+        quick.walks, quick.steps, quick.trials)
+    row = rep["systems"][0]
+    assert row["trials"] == quick.trials and len(row["curve_e_pos_mean"]) == quick.walks
+    assert row["train_steps"] == quick.walks * quick.steps  # the ledger's model too
+
+
 def _numbers(obj):
     if isinstance(obj, dict):
         for v in obj.values():
@@ -292,3 +305,18 @@ def test_the_report_on_dask_gives_the_pools_numbers(tmp_path):
                       dashboard_address=None) as cluster:
         on_dask = build_report(scheduler=cluster.scheduler_address, folder=tmp_path, **SMALL)
     assert _measured(on_dask) == _measured(on_pool)
+
+
+def test_tasks_are_grouped_by_the_kernels_they_compile():
+    from cml_edge.engine.sweep import Task
+    from cml_edge.report.batch import device_group
+
+    def group(backend, seed, world="grid"):
+        return device_group(Task(f"{backend}-{world}-s{seed}", "cml_edge.scenarios.tasks:x",
+                                 {"world": world, "backend": backend, "seed": seed}))
+
+    assert group("int8", 0)[0] == group("int16", 1)[0] == group("fixed", 0)[0]
+    assert group("float", 0)[0] != group("float32", 0)[0]  # float32 kernels of their own
+    assert group("crossbar", 0) == group("crossbar", 1)  # two seeds of one run
+    assert group("int8", 0) == group("int16", 1)  # one kind of run on the same kernels
+    assert group("crossbar", 0)[1] != group("crossbar", 0, "robot")[1]
