@@ -1,4 +1,10 @@
 """The compiler layer: how kernels are compiled (:mod:`~cml_edge.jit.kernel`), functions
 routed by type at compile time (:mod:`~cml_edge.jit.routing`), the counter-based random
 numbers (:mod:`~cml_edge.jit.rng`), the one Gaussian sampler (:mod:`~cml_edge.jit.gauss`)
-and explicit vector sums and bit masks (:mod:`~cml_edge.jit.simd`)."""
+and explicit vector sums and bit masks (:mod:`~cml_edge.jit.simd`). Importing it
+makes processes that share the kernel cache compile each kernel once
+(:mod:`~cml_edge.jit.cache_lock`)."""
+
+from cml_edge.jit.cache_lock import install as _install_cache_lock
+
+_install_cache_lock()

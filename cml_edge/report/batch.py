@@ -22,6 +22,9 @@ from cml_edge.backends import backend_spec
 from cml_edge.engine import timings
 from cml_edge.engine.sweep import Task, Workers, run_sweep
 
+_NUMBER_TYPE = ("dtype", "bits")
+"""The backend options that choose a device's number type (float's, fixed point's)."""
+
 _NOT_KERNELS = ("seed", "backend", "backend_options", "options")
 """Task parameters that choose no kernel (the device's are in the first group)."""
 
@@ -31,15 +34,16 @@ def _run_kind(params: dict[str, Any]) -> dict[str, Any]:
             if k not in _NOT_KERNELS}
 
 
-def device_group(task: Task) -> tuple[tuple[str, str | None], str]:
+def device_group(task: Task) -> tuple[tuple[str, Any], str]:
     """The kernels a task compiles (:meth:`~cml_edge.engine.sweep.Workers.run`'s group):
-    those of the device it runs on and its number type (int8, int16 and fixed share the
-    fixed-point kernels, the presets of a crossbar the crossbar's), then those of the kind
-    of run (world, schedule, planner, arena: its parameters but the seed and the
-    device's), so two seeds of a robot run, or two presets' robot runs, do not compile
-    the robot's loops at once."""
+    those of the device it runs on and its number type (Numba compiles a kernel for each:
+    int8 and int16 have their own fixed-point kernels, float32 and float64 their own;
+    the presets of a crossbar share the crossbar's), then those of the kind of run
+    (world, schedule, planner, arena: its parameters but the seed and the device's), so
+    two seeds of a robot run, or two presets' robot runs, do not compile the robot's
+    loops at once."""
     spec = backend_spec(task.params.get("protocol", task.params)["backend"])
-    return ((spec.device.name, spec.options.get("dtype")),
+    return ((spec.device.name, tuple(spec.options.get(k) for k in _NUMBER_TYPE)),
             json.dumps(_run_kind(task.params), sort_keys=True, default=str))
 
 
