@@ -263,12 +263,14 @@ class Workers:
                     futures[pool.submit(run_task, task)] = task
 
         submit(gates.ready(todo))
+        submit(gates.spare(self.n - len(futures)))
         while futures:
             done, _ = wait(futures, return_when=FIRST_COMPLETED)
             for fut in done:
                 task = futures.pop(fut)
                 finish(*fut.result())
                 submit(gates.ended(task))
+            submit(gates.spare(self.n - len(futures)))
 
 
 class _Gates:
@@ -280,7 +282,9 @@ class _Gates:
     first tasks of several groups spread over the workers, each compiling its own
     group's kernels); the other tasks of the group wait until it has ended, then pass on
     to the next group of their path (a robot run waits for the device's first task, then
-    for the first robot run on that device)."""
+    for the first robot run on that device). A worker never idles while tasks are held
+    (:meth:`spare`): it takes a held task, even if that means compiling kernels another
+    worker is compiling too."""
 
     def __init__(self, group: Callable[[Task], Any] | None) -> None:
         self.group = group
@@ -308,6 +312,17 @@ class _Gates:
                 self.firsts[task.key] = shut
                 now.append(task)
         return now
+
+    def spare(self, idle: int) -> list[Task]:
+        """Up to ``idle`` held tasks, for workers that would otherwise wait: the oldest
+        group's first."""
+        out: list[Task] = []
+        for g in list(self.held):
+            while self.held[g] and len(out) < idle:
+                out.append(self.held[g].pop(0))
+            if not self.held[g]:
+                del self.held[g]
+        return out
 
     def ended(self, task: Task) -> list[Task]:
         """The tasks to queue now that ``task`` has ended."""

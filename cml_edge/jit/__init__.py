@@ -2,7 +2,7 @@
 routed by type at compile time (:mod:`~cml_edge.jit.routing`), the counter-based random
 numbers (:mod:`~cml_edge.jit.rng`), the one Gaussian sampler (:mod:`~cml_edge.jit.gauss`)
 and explicit vector sums and bit masks (:mod:`~cml_edge.jit.simd`). Importing it
-makes processes that share the kernel cache compile each kernel once
+makes processes that share the kernel cache save into its index one at a time
 (:mod:`~cml_edge.jit.cache_lock`)."""
 
 from cml_edge.jit.cache_lock import install as _install_cache_lock

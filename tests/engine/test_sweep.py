@@ -135,3 +135,20 @@ def test_a_group_waits_for_its_first_task_level_by_level():
     assert keys(gates.ended(tasks["c"])) == ["c2"]
     assert keys(gates.ended(tasks["d"])) == ["f"]
     assert keys(_Gates(None).ready(list(tasks.values()))) == list(paths)
+
+
+def test_held_tasks_go_to_workers_that_would_idle():
+    """``spare(n)``: up to n held tasks, oldest group first, each once; a task handed out
+    so is not queued again when its group opens."""
+    from cml_edge.engine.sweep import _Gates
+
+    paths = {"a": "g1", "b": "g1", "c": "g1", "d": "g2", "e": "g2"}
+    tasks = {k: Task(k, f"{__name__}:whoami", {"i": 0}) for k in paths}
+    gates = _Gates(lambda t: paths[t.key])
+    keys = lambda batch: [t.key for t in batch]  # noqa: E731
+    assert keys(gates.ready(list(tasks.values()))) == ["a", "d"]
+    assert keys(gates.spare(0)) == []
+    assert keys(gates.spare(1)) == ["b"]
+    assert keys(gates.spare(2)) == ["c", "e"]
+    assert keys(gates.spare(2)) == []
+    assert keys(gates.ended(tasks["a"])) == keys(gates.ended(tasks["d"])) == []

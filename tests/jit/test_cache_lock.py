@@ -1,6 +1,5 @@
-"""Processes that share the kernel cache compile each kernel once (cml_edge.jit.cache_lock):
-two processes that need one function for one signature at the same time compile it once,
-and two that save two signatures of one function at once keep both in the index."""
+"""Processes that share the kernel cache keep every entry of its index
+(cml_edge.jit.cache_lock): two that save two signatures of one function at once keep both."""
 
 import json
 import subprocess
@@ -13,11 +12,7 @@ _SCRIPT = textwrap.dedent("""
     import json, multiprocessing as mp, sys, time
     from numba.core import caching, event
     import cml_edge.jit
-    from cml_edge.jit import cache_lock
-    cache_lock.SCOPE = cache_lock.SCOPE + ("slowmod",)
     import slowmod
-
-    mode = sys.argv[1]
 
     def counted():  # the names of the functions this process compiles from now on
         names = []
@@ -31,19 +26,18 @@ _SCRIPT = textwrap.dedent("""
 
     def child(barrier, arg, out):
         compiled = counted()
-        if mode == "index":  # widen the index's read-change-write window
-            save_index = caching.IndexDataCacheFile._save_index
-            def slow(self, overloads):
-                time.sleep(0.5)
-                save_index(self, overloads)
-            caching.IndexDataCacheFile._save_index = slow
+        save_index = caching.IndexDataCacheFile._save_index
+        def slow(self, overloads):  # widen the index's read-change-write window
+            time.sleep(0.5)
+            save_index(self, overloads)
+        caching.IndexDataCacheFile._save_index = slow
         barrier.wait()
         out.put((slowmod.f(arg), compiled.count("f")))
 
     if __name__ == "__main__":
         ctx = mp.get_context("fork")
         barrier, out = ctx.Barrier(2), ctx.Queue()
-        args = (1.0, 1.0) if mode == "same" else (1.0, 1)
+        args = (1.0, 1)  # two signatures of f
         procs = [ctx.Process(target=child, args=(barrier, a, out)) for a in args]
         for p in procs:
             p.start()
@@ -63,27 +57,19 @@ def _slow_module(n: int = 150) -> str:
     return f"from numba import njit\n\n@njit(cache=True)\ndef f(x):\n{body}\n    return x\n"
 
 
-def _run(tmp_path, mode: str) -> dict:
+def _run(tmp_path) -> dict:
     (tmp_path / "slowmod.py").write_text(_slow_module())
     (tmp_path / "run.py").write_text(_SCRIPT)
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path),
            "PATH": "/usr/bin:/bin"}
-    done = subprocess.run([sys.executable, str(tmp_path / "run.py"), mode], env=env,
+    done = subprocess.run([sys.executable, str(tmp_path / "run.py")], env=env,
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout.splitlines()[-1])
 
 
 @pytest.mark.slow
-def test_two_processes_that_need_one_signature_at_once_compile_it_once(tmp_path):
-    out = _run(tmp_path, "same")
-    assert sorted(n for _, n in out["results"]) == [0, 1]
-    assert out["results"][0][0] == out["results"][1][0] == out["values"][0]
-    assert out["recompiled"] == 0
-
-
-@pytest.mark.slow
 def test_two_signatures_saved_at_once_both_stay_in_the_index(tmp_path):
-    out = _run(tmp_path, "index")
+    out = _run(tmp_path)
     assert [n for _, n in out["results"]] == [1, 1]  # two signatures: each compiled once
     assert out["recompiled"] == 0  # and both loaded from the cache afterwards
