@@ -23,7 +23,9 @@ from cml_edge.engine import timings
 from cml_edge.engine.sweep import Task, Workers, run_sweep
 
 _NUMBER_TYPE = ("dtype", "bits")
-"""The backend options that choose a device's number type (float's, fixed point's)."""
+"""The backend options that choose a device's number type (float's dtype, fixed point's
+bits; two bit widths stored in one integer type are two groups on the same kernels, which
+only lets their first tasks compile them side by side)."""
 
 _NOT_KERNELS = ("seed", "backend", "backend_options", "options")
 """Task parameters that choose no kernel (the device's are in the first group)."""

@@ -9,7 +9,7 @@ import textwrap
 import pytest
 
 _SCRIPT = textwrap.dedent("""
-    import json, multiprocessing as mp, sys, time
+    import json, multiprocessing as mp, time
     from numba.core import caching, event
     import cml_edge.jit
     import slowmod
@@ -32,7 +32,8 @@ _SCRIPT = textwrap.dedent("""
             save_index(self, overloads)
         caching.IndexDataCacheFile._save_index = slow
         barrier.wait()
-        out.put((slowmod.f(arg), compiled.count("f")))
+        slowmod.f(arg)
+        out.put(compiled.count("f"))
 
     if __name__ == "__main__":
         ctx = mp.get_context("fork")
@@ -46,9 +47,9 @@ _SCRIPT = textwrap.dedent("""
             p.join()
         # a third process: what the index holds now
         reloads = counted()
-        values = [slowmod.f(a) for a in args]
-        print(json.dumps({"results": results, "recompiled": reloads.count("f"),
-                          "values": values}))
+        for a in args:
+            slowmod.f(a)
+        print(json.dumps({"compiled": results, "recompiled": reloads.count("f")}))
 """)
 
 
@@ -71,5 +72,5 @@ def _run(tmp_path) -> dict:
 @pytest.mark.slow
 def test_two_signatures_saved_at_once_both_stay_in_the_index(tmp_path):
     out = _run(tmp_path)
-    assert [n for _, n in out["results"]] == [1, 1]  # two signatures: each compiled once
+    assert out["compiled"] == [1, 1]  # two signatures: each compiled once
     assert out["recompiled"] == 0  # and both loaded from the cache afterwards
