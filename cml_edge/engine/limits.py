@@ -13,9 +13,15 @@ median time per unit:
 - :data:`TASK_BYTES`: ``scenario_tasks("paper", "crossbar", {"preset": "pcm"}, 1,
   chips=range(20000))`` peaks at 3.7 kB per task; a run keeps each task's result record
   as well (a few kB of JSON-able numbers): 8 kB per task;
-- :data:`TRAIN_STEP_S`, :data:`PLAN_STEP_S`: the slowest device's training and
-  planning step through the compiled loops, 10 us (``cml-edge bench``;
-  benchmarks/README.md: crossbar pcm 7.3 us a training step, 10.1 us a planning step);
+- :data:`TRAIN_STEP_S`: a training step of the slowest device, all in (its share of the
+  plans, the float64 twin and each model's setup): ``cml-edge emulate --backend crossbar
+  --preset reram --chips 100 --walks 30 --trials 25`` (1,000 models of 30 x 900 steps,
+  kernels cached) took 133 CPU s, 4.9 us a step; the same with the default ``pcm``
+  115.8 CPU s (4.3 us), and with ``--chips 1000`` 1,257 CPU s, its compiling included
+  (4.7 us): 5 us;
+- :data:`PLAN_STEP_S`: the slowest device's planning step, 2.4 us (``cml-edge bench
+  --backends crossbar --presets``: crossbar reram-symmetric; benchmarks/README.md), priced
+  at the whole step budget of every trial although most plans end sooner: 2.5 us;
 - :data:`PATH_BYTES`: a plan keeps its visited cells, two int64 per step
   (:class:`cml_edge.grid.planning.PlanResult`), and the fidelity twin's as many: 32 bytes
   per trial and step;
@@ -44,8 +50,8 @@ from typing import Any
 from cml_edge.errors import InputError
 
 TASK_BYTES = 8e3
-TRAIN_STEP_S = 10e-6
-PLAN_STEP_S = 10e-6
+TRAIN_STEP_S = 5e-6
+PLAN_STEP_S = 2.5e-6
 PATH_BYTES = 32.0
 CELL_BYTES = 64.0
 DEVICE_BYTES = 1e3

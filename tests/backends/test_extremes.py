@@ -100,7 +100,7 @@ def test_the_estimate_scales_with_the_sizes():
                                     arena=30))
     assert small.memory < 1e9 and big.seconds > 100 * small.seconds
     assert limits.check(Namespace(seeds=10, walks=100, steps=900)) is None
-    line = limits.check(Namespace(seeds=10000, walks=100, steps=900))
+    line = limits.check(Namespace(seeds=100000, walks=100, steps=900))
     assert line.startswith("cml-edge: estimate: ~") and " h on " in line
     with pytest.raises(InputError, match=r"--devices 1e\+07 would need ~10 GB of memory; "
                                          r"this machine has 1 GB"):
