@@ -19,9 +19,9 @@ median time per unit:
   kernels cached) took 133 CPU s, 4.9 us a step; the same with the default ``pcm``
   115.8 CPU s (4.3 us), and with ``--chips 1000`` 1,257 CPU s, its compiling included
   (4.7 us): 5 us;
-- :data:`PLAN_STEP_S`: the slowest device's planning step, 2.4 us (``cml-edge bench
-  --backends crossbar --presets``: crossbar reram-symmetric; benchmarks/README.md), priced
-  at the whole step budget of every trial although most plans end sooner: 2.5 us;
+- :data:`PLAN_STEP_S`: the slowest device's planning step, 2.75 us (``cml-edge bench
+  --backends crossbar --presets --repeats 3 --json``: crossbar reram), priced at the whole
+  step budget of every trial although most plans end sooner: 3 us;
 - :data:`PATH_BYTES`: a plan keeps its visited cells, two int64 per step
   (:class:`cml_edge.grid.planning.PlanResult`), and the fidelity twin's as many: 32 bytes
   per trial and step;
@@ -51,7 +51,7 @@ from cml_edge.errors import InputError
 
 TASK_BYTES = 8e3
 TRAIN_STEP_S = 5e-6
-PLAN_STEP_S = 2.5e-6
+PLAN_STEP_S = 3e-6
 PATH_BYTES = 32.0
 CELL_BYTES = 64.0
 DEVICE_BYTES = 1e3
