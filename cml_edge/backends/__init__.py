@@ -67,6 +67,7 @@ def register_device(device: DeviceSpec) -> DeviceSpec:
     if taken:
         raise ValueError(f"device {device.name!r}: name {sorted(taken)[0]!r} is taken")
     register(device.array_class.State, device.kernels)
+    device.array_class.origin = device.origin  # saved with its states (model files)
     DEVICES[device.name] = device
     ARRAY_CLASSES[device.name] = device.array_class
     for name, backend in device.backends.items():
@@ -95,8 +96,18 @@ def beyond_reference(backend: str, options: Mapping[str, Any], schedule: str) ->
     return {} if device is None else device.beyond_reference(options, schedule)
 
 
+def _load_plugins() -> None:
+    """Load the plugins the environment names (:func:`cml_edge.plugins.load_environment`),
+    once: a name not registered may be a plugin's."""
+    from cml_edge import plugins
+
+    plugins.load_environment()
+
+
 def backend_spec(name: str) -> BackendSpec:
     """The spec registered as ``name``; ValueError naming the allowed names otherwise."""
+    if name not in BACKENDS:
+        _load_plugins()
     try:
         return BACKENDS[name]
     except KeyError:
@@ -124,7 +135,11 @@ def array_from_state_dict(d: dict[str, np.ndarray]) -> SynapticArray:
     """Rebuild any registered array from its ``state_dict`` (or an older release's)."""
     kind = str(d.get("__backend__", ""))
     if kind not in DEVICES:
-        raise InputError(f"unknown array kind {kind!r}; known: {', '.join(sorted(DEVICES))}")
+        _load_plugins()
+    if kind not in DEVICES:
+        from cml_edge import plugins
+
+        raise plugins.missing(kind, str(d["__origin__"]) if "__origin__" in d else None)
     return DEVICES[kind].array_class.from_state_dict(d)
 
 
@@ -166,6 +181,8 @@ def check_device(device: DeviceSpec | str) -> None:
     :class:`~cml_edge.backends.contract.DeviceContractError` naming the device, the
     configuration and the broken rule."""
     if isinstance(device, str):
+        if device not in DEVICES:
+            _load_plugins()
         if device not in DEVICES:
             raise InputError(f"unknown device {device!r}; known: {', '.join(DEVICES)}")
         device = DEVICES[device]

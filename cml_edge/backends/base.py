@@ -52,6 +52,7 @@ class SynapticArray:
     name: ClassVar[str]
     State: ClassVar[type]
     counter_names: ClassVar[tuple[str, ...]]
+    origin: ClassVar[str | None] = None  # the plugin that defined the device (registry)
     config: Any  # the array's device config (its device's config class), attribute or property
 
     def __init__(self, state: Any) -> None:
@@ -131,7 +132,8 @@ class SynapticArray:
 
     # persistence ------------------------------------------------------------------
     def state_dict(self) -> dict[str, np.ndarray]:
-        """Every state array, plus the backend name and options, for an exact restore.
+        """Every state array, plus the backend name and options, for an exact restore, and
+        for a plugin's device the plugin (``__origin__``).
 
         A parameter record is stored as one vector under its field's name and its field
         names under ``__<field>__`` (:func:`cml_edge.backends.params.record_to_array`).
@@ -146,6 +148,8 @@ class SynapticArray:
                 d[f] = np.array(v)
         d["__backend__"] = np.array(self.name)
         d["__options__"] = np.array(json.dumps(self.options(), sort_keys=True))
+        if self.origin is not None:  # a plugin's device: loading needs the plugin
+            d["__origin__"] = np.array(self.origin)
         return d
 
     @classmethod

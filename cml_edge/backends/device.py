@@ -144,11 +144,29 @@ class Reference:
     beyond: Callable[[Mapping[str, Any], str], tuple[str, ...]]
 
 
-RuleFidelity = tuple[float, tuple[float, float]]
-RULE_FIDELITY: RuleFidelity = (0.8, (0.6, 1.4))
-"""How closely a burst of updates must follow the local rule (the contract,
-:mod:`cml_edge.backends.contract`): the least correlation of the weights' change with
-lr post pre^T, and the range of its projection on it (1: exactly the rule's size)."""
+@dataclass(frozen=True)
+class Tolerance:
+    """How closely a burst of updates must follow the local rule (the contract's update
+    rule, :mod:`cml_edge.backends.contract`): ``correlation``, the least correlation of
+    the weights' change with lr post pre^T; ``projection``, the range of its projection on
+    it (1: exactly the rule's size). A device whose physics departs from the rule (a
+    coarse or one-sided device, strong write noise) declares its own, with ``why``: the
+    measured reason, which the contract's messages quote."""
+
+    correlation: float = 0.8
+    projection: tuple[float, float] = (0.6, 1.4)
+    why: str = "the contract's default: an update moves the weights the way and by about " \
+               "the amount the rule asks"
+
+    def __post_init__(self) -> None:
+        lo, hi = self.projection
+        if not (-1.0 <= self.correlation < 1.0 and lo < hi and self.why.strip()):
+            raise ValueError(f"a tolerance needs a correlation in [-1, 1), projection lo < hi "
+                             f"and a reason (got {self.correlation!r}, {self.projection!r}, "
+                             f"why {self.why!r})")
+
+
+DEFAULT_TOLERANCE = Tolerance()
 
 
 @dataclass(frozen=True)
@@ -168,16 +186,20 @@ class DeviceSpec:
     - ``cost``: the budget's :class:`CostModel`, or a function of the array's config
       giving it (float64 and float32 differ); None: not costed;
     - ``report``: what the reference report runs on the device (:class:`Report`);
-    - ``rule_fidelity``: preset -> (least correlation, projection range) of an update
-      burst against the local rule, where a calibrated device's physics departs from the
-      default :data:`RULE_FIDELITY` (measured; the contract holds it to this);
+    - ``tolerance``: how closely an update burst must follow the local rule
+      (:class:`Tolerance`), by preset name, or under None for every configuration of the
+      device without its own (unset: :data:`DEFAULT_TOLERANCE`);
     - ``draws``: whether an array of a config draws from its device stream (a function
       of the config, or a constant): where it draws nothing, every chip seed gives the
       same chip, and ``--chips`` is refused (:mod:`cml_edge.grid.chips`);
     - ``schedule``: the learning schedule ``train`` and ``emulate`` run when ``--schedule``
       is not given (``walk``, the paper's; loihi2: ``step``, the one Lava runs);
     - ``reference``: the simulator the device follows and what of a run it cannot run
-      (:class:`Reference`), reported in ``train`` and ``emulate`` (:meth:`beyond_reference`).
+      (:class:`Reference`), reported in ``train`` and ``emulate`` (:meth:`beyond_reference`);
+    - ``plain``: the device's readable reference, plain loops with the interface of a
+      device folder's ``reference.py`` (None: that module, beside the array's);
+    - ``origin``: the plugin that defined the device (a file or module name; None: built
+      in), recorded in its model files.
     """
 
     array_class: type
@@ -188,10 +210,12 @@ class DeviceSpec:
     knobs: tuple[Knob, ...] = ()
     cost: CostModel | Callable[[Any], CostModel] | None = None
     report: Report = field(default_factory=Report)
-    rule_fidelity: Mapping[str, RuleFidelity] = field(default_factory=dict)
+    tolerance: Mapping[str | None, Tolerance] = field(default_factory=dict)
     draws: bool | Callable[[Any], bool] = False
     schedule: str = "walk"
     reference: Reference | None = None
+    plain: Any = None
+    origin: str | None = None
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():
@@ -200,9 +224,9 @@ class DeviceSpec:
         names = [k.name for k in self.knobs]
         if len(set(names)) != len(names):
             raise ValueError(f"device {self.name!r} declares a knob twice: {names}")
-        unknown = set(self.rule_fidelity) - set(self.presets)
+        unknown = set(self.tolerance) - set(self.presets) - {None}
         if unknown:
-            raise ValueError(f"device {self.name!r}: rule_fidelity names an unknown preset "
+            raise ValueError(f"device {self.name!r}: tolerance names an unknown preset "
                              f"{sorted(unknown)[0]!r}")
         self.report_systems()  # every entry names a backend (and preset) of the device
         self.report_sweeps()
@@ -347,6 +371,17 @@ class DeviceSpec:
         """Whether two chip seeds give different arrays of ``config`` (``draws``)."""
         return self.draws(config) if callable(self.draws) else bool(self.draws)
 
-    def rule_fidelity_of(self, options: Mapping[str, Any]) -> RuleFidelity:
-        """How closely a configuration given ``options`` must follow the local rule."""
-        return self.rule_fidelity.get(options.get("preset"), RULE_FIDELITY)
+    def tolerance_of(self, options: Mapping[str, Any]) -> Tolerance:
+        """How closely a configuration given ``options`` must follow the local rule: its
+        preset's tolerance, else the device's, else :data:`DEFAULT_TOLERANCE`."""
+        return self.tolerance.get(options.get("preset")) or \
+            self.tolerance.get(None, DEFAULT_TOLERANCE)
+
+    def reference_loops(self) -> Any:
+        """The readable reference (``plain``, or ``reference.py`` beside the array's
+        module)."""
+        if self.plain is not None:
+            return self.plain
+        from importlib import import_module
+
+        return import_module(self.array_class.__module__.rsplit(".", 1)[0] + ".reference")

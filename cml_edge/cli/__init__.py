@@ -39,7 +39,7 @@ import argparse
 import os
 import sys
 
-from cml_edge import __version__
+from cml_edge import __version__, plugins
 from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
 from cml_edge.cli.args import hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
@@ -66,6 +66,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cml-edge", description="Cognitive Map Learner navigation on "
                      "emulated neuromorphic synaptic arrays.")
     parser.add_argument("--version", action="version", version=f"cml-edge {__version__}")
+    parser.add_argument("--plugin", action="append", default=[], metavar="FILE_OR_MODULE",
+                        help="load the devices of a plugin (a .py file or a module name; "
+                        f"repeatable; also {plugins.ENV} and the entry points "
+                        f"{plugins.GROUP}): docs/your-device.md")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for group in COMMAND_GROUPS:
         group.add_parsers(sub)
@@ -86,11 +90,19 @@ def _profile_option(sub: argparse._SubParsersAction) -> None:
                 _profile_option(action)
 
 
+COMMANDS = {"train", "evaluate", "navigate", "emulate", "robot", "dqn", "sweep", "report",
+            "bench", "scenario", "breakpoint", "device", "export", "lava"}
+"""The command names (where ``--plugin`` options end)."""
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     hold_estimate(None)
     try:
         with stop_on_signals():
+            for line in plugins.load_given(plugins.given(argv, COMMANDS)):
+                print(f"cml-edge: warning: {line}", file=sys.stderr)
+            parser = build_parser()
             args = parser.parse_args(argv)
             hold_estimate(limits.check(args))  # refuses what will not fit; said at the start
             with announce_compiles(args), timings.recording() as recorded:

@@ -20,6 +20,7 @@ from cml_edge.backends import array_from_state_dict
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write
+from cml_edge.plugins import PluginError
 
 FORMAT = "cml-edge-model"
 FORMAT_VERSION = 1
@@ -98,6 +99,8 @@ def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
     try:
         meta = json.loads(str(data["meta"]))
         cml = cml_from_arrays(data, CMLConfig.from_dict(meta["config"]), meta["backend"])
+    except PluginError as exc:  # a device of a plugin that is not loaded
+        raise ModelFileError(f"{str(path)!r}: {exc}") from None
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
         raise ModelFileError(f"{str(path)!r} is a corrupted model file: {exc}") from None
     return cml, meta.get("training", {})

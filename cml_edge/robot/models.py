@@ -35,6 +35,7 @@ from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.model_file import cml_arrays, cml_from_arrays, read_npz
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write
+from cml_edge.plugins import PluginError
 from cml_edge.robot.observation import RobotCMLSettings
 from cml_edge.robot.planning import (
     BASE_POSE,
@@ -91,6 +92,8 @@ def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
         if n < 1:
             raise InputError(f"n_models {n} < 1")
         cmls = [cml_from_arrays(data, config, meta["backend"], f"m{i}/") for i in range(n)]
+    except PluginError as exc:  # a device of a plugin that is not loaded
+        raise RobotModelError(f"{name!r}: {exc}") from None
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
         raise RobotModelError(f"{name!r} is a corrupted robot model file: {exc}") from None
     return cmls, meta

@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -156,6 +157,21 @@ class CountingArray(SynapticArray):
         return self.state.W.copy()
 
 
+def _returning(kernel, rows):
+    def read(state, v):
+        out = np.zeros(state.W.shape[0 if rows else 1])
+        kernel.py_func(state, v, out)
+        return out
+
+    return read
+
+
+COUNTING_REFERENCE = SimpleNamespace(  # the readable reference: the kernels as plain Python
+    matvec=_returning(counting_matvec, True), rmatvec=_returning(counting_rmatvec, False),
+    outer_update=counting_outer_update.py_func, commit=counting_commit.py_func,
+    sigmoid=lambda state, z: np.array([1.0 / (1.0 + math.exp(-v)) for v in z]), SCRATCH=())
+
+
 COUNTING = DeviceSpec(
     array_class=CountingArray,
     kernels=Kernels(counting_matvec, counting_rmatvec, counting_outer_update, counting_commit,
@@ -167,6 +183,7 @@ COUNTING = DeviceSpec(
     # each weight read a float MAC; no bytes or pulses counted
     cost=CostModel("counting", "fp32_mac", ("weight_reads",)),
     report=Report(systems=("counting",), breakpoints=(("counting", ("lr_scale",)),)),
+    plain=COUNTING_REFERENCE,
 )
 
 

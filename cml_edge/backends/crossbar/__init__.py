@@ -10,7 +10,7 @@ from cml_edge.backends.crossbar.config import (
     DeviceConfig,
     draws,
 )
-from cml_edge.backends.device import Backend, DeviceSpec, Report
+from cml_edge.backends.device import Backend, DeviceSpec, Report, Tolerance
 from cml_edge.backends.dispatch import Kernels
 
 REPORT_KNOBS = ("read_noise", "prog_noise", "levels", "drift_time", "stuck", "adc_bits")
@@ -40,14 +40,16 @@ DEVICE = DeviceSpec(
         breakpoints=(("crossbar:pcm", REPORT_KNOBS), ("crossbar:reram", REPORT_KNOBS),
                      ("crossbar:ideal", ("read_noise", "levels", "stuck", "adc_bits"))),
     ),
-    # How closely a 20-update burst follows the local rule where the physics departs from
-    # the default (0.8, 0.6..1.4), as measured: the SET-only PCM's exponential steps near
-    # g_min, where one-sided weights sit, are larger than the controller's full-range
-    # calibration assumes, so its weights move 2.6-2.9x as far as the rule asks
-    # (correlation 0.89-0.93); the ReRAM's write noise (56 dG per pulse) and additive
-    # cycle-to-cycle noise (3.75 dG) decorrelate the burst (correlation 0.55-0.70,
-    # projection 0.53-0.72). An update that does nothing, or goes the wrong way, fails both.
-    rule_fidelity={"pcm": (0.8, (2.0, 3.5)), "reram": (0.4, (0.3, 1.0))},
+    # where the physics departs from the default (0.8, 0.6..1.4), as measured
+    tolerance={
+        "pcm": Tolerance(0.8, (2.0, 3.5), why="the SET-only PCM's exponential steps near "
+                         "g_min, where one-sided weights sit, are larger than the controller's "
+                         "full-range calibration assumes: its weights move 2.6-2.9x as far as "
+                         "the rule asks (correlation 0.89-0.93)"),
+        "reram": Tolerance(0.4, (0.3, 1.0), why="the ReRAM's write noise (56 dG per pulse) "
+                           "and additive cycle-to-cycle noise (3.75 dG) decorrelate a burst "
+                           "(correlation 0.55-0.70, projection 0.53-0.72)"),
+    },
 )
 
 __all__ = ["DEVICE", "CrossbarArray", "CrossbarState", "DeviceConfig"]
