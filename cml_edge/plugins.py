@@ -72,7 +72,7 @@ def _import(plugin: str) -> Any:
     path = Path(origin(plugin))
     if not path.is_file():
         raise PluginError(f"plugin file {plugin!r} does not exist")
-    name = path.stem
+    name = _module_name(plugin)
     if not name.isidentifier():
         raise PluginError(f"plugin file {plugin!r}: {name!r} is not a module name (rename "
                           "the file)")
@@ -194,9 +194,19 @@ def load(plugin: str, *, check: bool = True) -> list[str]:
     key = origin(plugin)
     if key in LOADED:
         return LOADED[key]
+    held = getattr(sys.modules.get(_module_name(plugin)), "__file__", None)
     found = _import(plugin)
-    LOADED[key] = _register(_devices(found, plugin), plugin, _source(found, plugin), check)
+    try:
+        LOADED[key] = _register(_devices(found, plugin), plugin, _source(found, plugin), check)
+    except BaseException:  # a plugin file that cannot be used is not left imported
+        if plugin.endswith(".py") and held is None:
+            sys.modules.pop(_module_name(plugin), None)
+        raise
     return LOADED[key]
+
+
+def _module_name(plugin: str) -> str:
+    return Path(plugin).stem if plugin.endswith(".py") else plugin
 
 
 def _entry_points() -> list[tuple[str, Any]]:
@@ -255,14 +265,11 @@ def given(argv: list[str], commands: set[str]) -> list[str]:
 
 def load_given(plugins: list[str]) -> list[str]:
     """Load the plugins named on the command line (PluginError at the first that cannot be
-    used), name them in ``CML_EDGE_PLUGINS`` for the processes the command starts, then
-    load the environment's; the lines saying which of those were left out."""
+    used), then the environment's; the lines saying which of those were left out. (Worker
+    processes are forked with the registry; a Dask worker on another machine loads its
+    own from its ``CML_EDGE_PLUGINS``.)"""
     for plugin in plugins:
         load(plugin)
-    if plugins:
-        os.environ[ENV] = os.pathsep.join(
-            [origin(p) for p in plugins] +
-            [p for p in os.environ.get(ENV, "").split(os.pathsep) if p.strip()])
     return load_environment(warn=False)
 
 

@@ -36,7 +36,7 @@ from cml_edge.backends.device import (
     Knob,
     Report,
 )
-from cml_edge.backends.dispatch import register, unregister
+from cml_edge.backends.dispatch import is_registered, register, unregister
 from cml_edge.errors import InputError
 
 DEVICE_PACKAGES = ("floating", "fixed", "crossbar", "loihi2")  # one entry per device folder
@@ -189,11 +189,14 @@ def check_device(device: DeviceSpec | str) -> None:
     if DEVICES.get(device.name) is device:
         contract.check(device)
         return
+    routed = is_registered(device.array_class.State)  # a kit device's arrays are
     register_device(device)
     try:
         contract.check(device)
     finally:
         unregister_device(device)
+        if routed:
+            register(device.array_class.State, device.kernels)
 
 
 __all__ = ["BACKENDS", "DEVICES", "Backend", "BackendSpec", "CostModel", "DeviceContractError",

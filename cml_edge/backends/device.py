@@ -199,7 +199,11 @@ class DeviceSpec:
     - ``plain``: the device's readable reference, plain loops with the interface of a
       device folder's ``reference.py`` (None: that module, beside the array's);
     - ``origin``: the plugin that defined the device (a file or module name; None: built
-      in), recorded in its model files.
+      in), recorded in its model files;
+    - ``characterize``: the device's own ``cml-edge device characterize`` (an object with
+      ``run(spec, options, devices, seed, progress)`` giving a JSON-able result,
+      ``figure(result)`` and ``show(result)``; None: the command has no model of it, but
+      for the crossbar's own).
     """
 
     array_class: type
@@ -216,6 +220,7 @@ class DeviceSpec:
     reference: Reference | None = None
     plain: Any = None
     origin: str | None = None
+    characterize: Any = None
 
     def __post_init__(self) -> None:
         for name, b in self.backends.items():

@@ -81,6 +81,11 @@ def register(state_class: type, kernels: Kernels) -> None:
         function.register(state_class, kernel)
 
 
+def is_registered(state_class: type) -> bool:
+    """Whether the seam has kernels for states of ``state_class``."""
+    return state_class in sa_matvec.implementations
+
+
 def unregister(state_class: type) -> None:
     """Remove the seam's kernels for ``state_class`` (a device taken out of the registry;
     loops compiled for it before keep their copy)."""

@@ -21,11 +21,7 @@ from cml_edge.backends import BACKENDS, DEVICES, DeviceSpec, backend_spec
 from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.backends.fields import field_names, range_text, scalar_kind
 from cml_edge.errors import InputError
-
-tqdm.monitor_interval = 0
-"""No tqdm monitor thread: a daemon thread, which tqdm wakes at exit while the
-interpreter finalizes. The monitor only speeds up bars that stall; ours are redrawn by
-their own updates."""
+from cml_edge.io.progress import Bar
 
 INT64_MAX = 2**63 - 1
 SEED_MAX = 2**62
@@ -157,22 +153,15 @@ def say_estimate() -> None:
         tqdm.write(_ESTIMATE.pop(), file=sys.stderr)
 
 
-class Progress:
+class Progress(Bar):
     """A progress callback ``(done, total)``: a tqdm bar on stderr, drawn only when stderr
     is a terminal; its first call says the held estimate (:func:`say_estimate`)."""
 
     def __init__(self, label: str) -> None:
-        self.label = label
-        self.bar: tqdm | None = None
+        super().__init__(label, drawn=sys.stderr.isatty())
 
-    def __call__(self, done: int, total: int) -> None:
-        if self.bar is None:
-            say_estimate()
-            self.bar = tqdm(total=total, desc=self.label, file=sys.stderr, leave=True,
-                            disable=not sys.stderr.isatty())
-        self.bar.update(done - self.bar.n)
-        if done >= total:
-            self.bar.close()
+    def start(self) -> None:
+        say_estimate()
 
 
 def command_line() -> str:

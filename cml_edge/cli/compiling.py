@@ -23,6 +23,7 @@ from numba.core import event
 from tqdm import tqdm
 
 from cml_edge.cli.args import say_estimate
+from cml_edge.jit import notice
 
 COLD_MINUTES = "1-3"
 """Rough minutes a command's kernels take to compile on a cold cache: ``emulate`` on the
@@ -60,7 +61,7 @@ class _Notice(event.Listener):
         if self.said.value:
             return
         func = getattr(ev.data["dispatcher"], "py_func", None)
-        if not getattr(func, "__module__", "").startswith("cml_edge."):
+        if not getattr(func, "__module__", "").startswith(notice.OURS):
             return
         with self.said.get_lock():
             if self.said.value:
@@ -78,5 +79,6 @@ class _Notice(event.Listener):
 def announce_compiles(args: argparse.Namespace) -> Iterator[None]:
     """While the command of ``args`` runs, print the line of the module docstring at the
     first compile of a cml_edge function."""
-    with event.install_listener("numba:compile", _Notice(*what_compiles(args))):
+    with notice.quiet(), event.install_listener("numba:compile",
+                                                _Notice(*what_compiles(args))):
         yield

@@ -13,7 +13,7 @@ import argparse
 import math
 from typing import Any
 
-from cml_edge.backends import backend_spec
+from cml_edge.backends import DEVICES, backend_spec
 from cml_edge.cli.args import Progress, add_backend, backend_options, command_line, int_at_least
 from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
@@ -35,9 +35,10 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("device", help="device-level measurements of a synaptic array")
     dsub = p.add_subparsers(dest="device_command", required=True, parser_class=type(p))
     c = dsub.add_parser("characterize", help="programming, drift, read noise and pulse "
-                        "response of a crossbar preset, measured on N devices per point")
-    add_backend(c, default="crossbar", help="the device: crossbar, the one characterised "
-                "(default); its preset by --preset (default pcm)")
+                        "response of a crossbar preset, measured on N devices per point; or a "
+                        "device's own characterisation (a measured device against its data)")
+    add_backend(c, default="crossbar", help="the device: crossbar (default; its preset by "
+                "--preset, default pcm), or a device with a characterisation of its own")
     c.set_defaults(show=show_characterize)
     c.add_argument("--devices", type=int_at_least(2, ">= 2 (devices per point)"), default=None,
                    help="devices per point (10,000; 100,000 with --against)")
@@ -63,12 +64,12 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.crossbar.characterize import characterize, figure
     from cml_edge.io.files import writable_file
 
-    if args.backend != "crossbar":
-        raise InputError(f"device characterize has no model of --backend {args.backend!r} "
-                         "(allowed: crossbar)")
     for flag in ("out", "plot"):
         if getattr(args, flag):
             writable_file(getattr(args, flag), f"--{flag}")
+    device = backend_spec(args.backend).device
+    if args.backend != "crossbar":
+        return _own(args, device)
     options = backend_options(args)
     preset = options.pop("preset", None) or backend_spec("crossbar").device.default_preset(
         "crossbar")
@@ -78,6 +79,24 @@ def cmd_characterize(args: argparse.Namespace) -> dict[str, Any]:
                           targets=args.targets, times=args.times,
                           progress=Progress("characterize"), **options)
     return _written(args, result, figure)
+
+
+def _own(args: argparse.Namespace, device: Any) -> dict[str, Any]:
+    """A device's own characterisation (``DeviceSpec.characterize``: a measured device's
+    fit against its data)."""
+    own = device.characterize
+    if own is None:
+        with_one = sorted(d.name for d in DEVICES.values() if d.characterize is not None)
+        raise InputError(f"device characterize has no model of --backend {args.backend!r} "
+                         f"(allowed: {', '.join(['crossbar', *with_one])})")
+    for flag in ("targets", "times", "against"):
+        if getattr(args, flag) is not None:
+            raise InputError(f"--{flag} is an option of the crossbar's characterisation, not "
+                             f"of {args.backend!r}")
+    result = own.run(device, backend_options(args), args.devices or 10_000, args.seed,
+                     Progress("characterize"))
+    result["characterization"] = "own"
+    return _written(args, result, own.figure)
 
 
 def _written(args: argparse.Namespace, result: dict[str, Any], figure: Any) -> dict[str, Any]:
@@ -144,6 +163,9 @@ def show_characterize(r: dict[str, Any]) -> None:
     (``--json``: every measurement); ``--against``: :func:`show_against`."""
     if "against" in r:
         show_against(r)
+        return
+    if r.get("characterization") == "own":
+        DEVICES[r["device"]].characterize.show(r)
         return
     from cml_edge.backends.crossbar.characterize import pulses_text, time_text
     from cml_edge.cli.output import num, table

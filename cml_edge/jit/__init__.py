@@ -5,10 +5,12 @@ and explicit vector sums and bit masks (:mod:`~cml_edge.jit.simd`). Importing it
 processes that share the kernel cache save into its index one at a time
 (:mod:`~cml_edge.jit.cache_lock`), and keeps code compiled for a class from outside the
 package in indexes of its own (:mod:`~cml_edge.jit.cache_scope`), so that a plugin never
-breaks the install."""
+breaks the install, and says when kernels first compile (:mod:`~cml_edge.jit.notice`)."""
 
 from cml_edge.jit.cache_lock import install as _install_cache_lock
 from cml_edge.jit.cache_scope import install as _install_cache_scope
+from cml_edge.jit.notice import install as _install_notice
 
 _install_cache_lock()
 _install_cache_scope()
+_install_notice()

@@ -25,6 +25,7 @@ from cml_edge.backends.device import CostModel, Knob, Tolerance
 from cml_edge.backends.fields import option
 from cml_edge.kit.device import Device, KitArray
 from cml_edge.kit.draws import normal, uniform
+from cml_edge.kit.measured import from_measurements
 
-__all__ = ["CostModel", "Device", "KitArray", "Knob", "Tolerance", "normal", "option",
-           "uniform"]
+__all__ = ["CostModel", "Device", "KitArray", "Knob", "Tolerance", "from_measurements",
+           "normal", "option", "uniform"]

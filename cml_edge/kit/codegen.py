@@ -17,9 +17,15 @@ parameter-record classes are attributes of that module (Numba's cache finds a cl
 module and name); their cached code sits in indexes of their own
 (:mod:`cml_edge.jit.cache_scope`).
 
-Visiting order, which fixes the order of every sum and every draw: cells column by
-column (j outer, i inner) in every loop; a read skips a line driven at exactly zero (no
-draw, no product), an update skips a cell whose increment is exactly zero.
+The order of every sum and every draw, which the loops fix: the weights are stored column
+by column in a tall matrix (rows >= cols) and row by row in a wide one, and programming,
+writes, commits and drift visit the cells in that storage order. A read drives only its
+nonzero inputs (no draw, no product for a zero one): in storage order as a sum of lines
+(``out += W[:, j] x_j``, each output summed in input order) when its outputs run along
+the stored lines, else one output at a time in four interleaved partial sums
+((s0 + s1) + (s2 + s3), the driven inputs in turn), each cell read as it is summed; its
+outputs are then reported in order. An in-place update writes each cell whose increment
+is nonzero; a deferred one adds to the accumulator (a zero factor adds an exact zero).
 """
 
 from __future__ import annotations
@@ -73,33 +79,59 @@ DEFAULTS = {"program": None, "read": "W[i, j]", "input": "v", "output": "v", "wr
 _LOOPS = '''
 def {X}program(W, cells, rng, p, Wf{C}):
     rows, cols = W.shape
-    for j in range(cols):
+    if rows >= cols:
+        for j in range(cols):
+            for i in range(rows):
+{cell}                W[i, j] = {program}
+    else:
         for i in range(rows):
-{cell}            W[i, j] = {program}
+            for j in range(cols):
+{cell}                W[i, j] = {program}
 
 
-def {X}read_in(rng, p, buf, x{C}):
+def {X}read_in(rng, p, buf, idx, x{C}):
     used = 0
     for j in range(x.shape[0]):
         v = x[j]
         if v != 0.0:
             v = {input}
         buf[j] = v
-        used += v != 0.0
+        if v != 0.0:
+            idx[used] = j
+            used += 1
     return used
 
 
-def {X}matvec(W, cells, rng, p, counters, buf, x, out{C}):
+def {X}matvec(W, cells, rng, p, counters, buf, idx, x, out{C}):
     rows, cols = W.shape
-    used = {X}read_in(rng, p, buf, x{C})
-    for i in range(rows):
-        out[i] = 0.0
-    for j in range(cols):
-        xj = buf[j]
-        if xj == 0.0:
-            continue
+    used = {X}read_in(rng, p, buf, idx, x{C})
+    if rows >= cols:  # column by column: out += W[:, j] x_j
         for i in range(rows):
-            out[i] += {read} * xj
+            out[i] = 0.0
+        for k in range(used):
+            j = idx[k]
+            xj = buf[j]
+            for i in range(rows):
+                out[i] += {read} * xj
+    else:  # row by row: four interleaved partial sums over the driven inputs
+        for i in range(rows):
+            s0 = s1 = s2 = s3 = 0.0
+            k = 0
+            while k + 4 <= used:
+                j = idx[k]
+                s0 += {read} * buf[j]
+                j = idx[k + 1]
+                s1 += {read} * buf[j]
+                j = idx[k + 2]
+                s2 += {read} * buf[j]
+                j = idx[k + 3]
+                s3 += {read} * buf[j]
+                k += 4
+            while k < used:
+                j = idx[k]
+                s0 += {read} * buf[j]
+                k += 1
+            out[i] = (s0 + s1) + (s2 + s3)
     n = cols
     for i in range(rows):
         v = out[i]
@@ -108,16 +140,36 @@ def {X}matvec(W, cells, rng, p, counters, buf, x, out{C}):
     counters[2] += used * rows
 
 
-def {X}rmatvec(W, cells, rng, p, counters, buf, y, out{C}):
+def {X}rmatvec(W, cells, rng, p, counters, buf, idx, y, out{C}):
     rows, cols = W.shape
-    used = {X}read_in(rng, p, buf, y{C})
-    for j in range(cols):
-        s = 0.0
-        for i in range(rows):
+    used = {X}read_in(rng, p, buf, idx, y{C})
+    if rows >= cols:  # column by column: four interleaved partial sums
+        for j in range(cols):
+            s0 = s1 = s2 = s3 = 0.0
+            k = 0
+            while k + 4 <= used:
+                i = idx[k]
+                s0 += {read} * buf[i]
+                i = idx[k + 1]
+                s1 += {read} * buf[i]
+                i = idx[k + 2]
+                s2 += {read} * buf[i]
+                i = idx[k + 3]
+                s3 += {read} * buf[i]
+                k += 4
+            while k < used:
+                i = idx[k]
+                s0 += {read} * buf[i]
+                k += 1
+            out[j] = (s0 + s1) + (s2 + s3)
+    else:  # row by row: out += W[i, :] y_i
+        for j in range(cols):
+            out[j] = 0.0
+        for k in range(used):
+            i = idx[k]
             yi = buf[i]
-            if yi != 0.0:
-                s += {read} * yi
-        out[j] = s
+            for j in range(cols):
+                out[j] += {read} * yi
     n = rows
     for j in range(cols):
         v = out[j]
@@ -128,20 +180,28 @@ def {X}rmatvec(W, cells, rng, p, counters, buf, y, out{C}):
 
 def {X}accumulate(acc, counters, buf, post, pre, lr):
     rows, cols = acc.shape
+    live_rows = 0
     for i in range(rows):
         buf[i] = lr * post[i]
-    added = 0
-    for j in range(cols):
-        q = pre[j]
-        if q == 0.0:
-            continue
+        live_rows += buf[i] != 0.0
+    live_cols = 0
+    if rows >= cols:  # a live column at a time; a zero factor adds an exact zero
+        for j in range(cols):
+            q = pre[j]
+            if q != 0.0:
+                live_cols += 1
+                for i in range(rows):
+                    acc[i, j] += buf[i] * q
+    else:
+        for j in range(cols):
+            live_cols += pre[j] != 0.0
         for i in range(rows):
-            dw = buf[i] * q
-            if dw != 0.0:
-                acc[i, j] += dw
-                added += 1
+            a = buf[i]
+            if a != 0.0:
+                for j in range(cols):
+                    acc[i, j] += a * pre[j]
     counters[3] += 1
-    counters[4] += added
+    counters[4] += live_rows * live_cols
 
 
 def {X}update(W, cells, rng, p, counters, buf, post, pre, lr{C}):
@@ -150,17 +210,30 @@ def {X}update(W, cells, rng, p, counters, buf, post, pre, lr{C}):
         buf[i] = lr * post[i]
     written = 0
     changed = 0
-    for j in range(cols):
-        q = pre[j]
-        if q == 0.0:
-            continue
+    if rows >= cols:
+        for j in range(cols):
+            q = pre[j]
+            if q == 0.0:
+                continue
+            for i in range(rows):
+                dw = buf[i] * q
+                if dw != 0.0:
+                    old = W[i, j]
+                    W[i, j] = {write}
+                    written += 1
+                    changed += W[i, j] != old
+    else:
         for i in range(rows):
-            dw = buf[i] * q
-            if dw != 0.0:
-                old = W[i, j]
-                W[i, j] = {write}
-                written += 1
-                changed += W[i, j] != old
+            a = buf[i]
+            if a == 0.0:
+                continue
+            for j in range(cols):
+                dw = a * pre[j]
+                if dw != 0.0:
+                    old = W[i, j]
+                    W[i, j] = {write}
+                    written += 1
+                    changed += W[i, j] != old
     counters[3] += 1
     counters[6] += written
     counters[7] += changed
@@ -170,15 +243,26 @@ def {X}commit(W, acc, cells, rng, p, counters{C}):
     rows, cols = W.shape
     written = 0
     changed = 0
-    for j in range(cols):
+    if rows >= cols:
+        for j in range(cols):
+            for i in range(rows):
+                dw = acc[i, j]
+                if dw != 0.0:
+                    old = W[i, j]
+                    W[i, j] = {write}
+                    acc[i, j] = 0.0
+                    written += 1
+                    changed += W[i, j] != old
+    else:
         for i in range(rows):
-            dw = acc[i, j]
-            if dw != 0.0:
-                old = W[i, j]
-                W[i, j] = {write}
-                acc[i, j] = 0.0
-                written += 1
-                changed += W[i, j] != old
+            for j in range(cols):
+                dw = acc[i, j]
+                if dw != 0.0:
+                    old = W[i, j]
+                    W[i, j] = {write}
+                    acc[i, j] = 0.0
+                    written += 1
+                    changed += W[i, j] != old
     counters[5] += 1
     counters[6] += written
     counters[7] += changed
@@ -186,9 +270,14 @@ def {X}commit(W, acc, cells, rng, p, counters{C}):
 
 def {X}elapse(W, cells, rng, p, t, age{C}):
     rows, cols = W.shape
-    for j in range(cols):
+    if rows >= cols:
+        for j in range(cols):
+            for i in range(rows):
+                W[i, j] = {drift}
+    else:
         for i in range(rows):
-            W[i, j] = {drift}
+            for j in range(cols):
+                W[i, j] = {drift}
 
 
 def {X}sigmoid(p, z, out{C}):
@@ -222,14 +311,14 @@ _SEAM = '''
 # cml_edge.jit.kernel); ``defer`` is a constant where the loops call it
 @njit(cache=True, inline="always")
 def seam_matvec(state, x, out):
-    _k_matvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf, x,
-              out{S})
+    _k_matvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf,
+              state.idx, x, out{S})
 
 
 @njit(cache=True, inline="always")
 def seam_rmatvec(state, y, out):
-    _k_rmatvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf, y,
-               out{S})
+    _k_rmatvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf,
+               state.idx, y, out{S})
 
 
 @njit(cache=True, inline="always")
@@ -264,7 +353,7 @@ def elapse(state, t):
 
 # the readable reference: the same loops as plain Python on the user's own functions, with
 # the interface of every device's reference.py (returning what a read gives)
-SCRATCH = ("buf",)
+SCRATCH = ("buf", "idx")
 
 
 def reference_program(state, Wf):
@@ -273,15 +362,15 @@ def reference_program(state, Wf):
 
 def matvec(state, x):
     out = np.zeros(state.W.shape[0])
-    _p_matvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf, x,
-              out{S})
+    _p_matvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf,
+              state.idx, x, out{S})
     return out
 
 
 def rmatvec(state, y):
     out = np.zeros(state.W.shape[1])
-    _p_rmatvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf, y,
-               out{S})
+    _p_rmatvec(state.W, state.cells, state.rng, state.params, state.counters, state.buf,
+               state.idx, y, out{S})
     return out
 
 
@@ -339,8 +428,8 @@ def _cell_lines(hooks: Mapping[str, Any], width: int, prefix: str) -> str:
         return ""
     names = ", ".join(f"c{k}" for k in range(width))
     comma = "," if width == 1 else ""
-    lines = [f"            {names}{comma} = {_call('cell', hooks['cell'], prefix)}"]
-    lines += [f"            cells[i, j, {k}] = c{k}" for k in range(width)]
+    lines = [f"                {names}{comma} = {_call('cell', hooks['cell'], prefix)}"]
+    lines += [f"                cells[i, j, {k}] = c{k}" for k in range(width)]
     return "\n".join(lines) + "\n"
 
 

@@ -45,9 +45,9 @@ import numpy as np
 from numba import njit
 from numba.core.dispatcher import Dispatcher
 
-from cml_edge.backends.base import MAX_IDLE_S, SynapticArray
+from cml_edge.backends.base import MAX_IDLE_S, SynapticArray, laid_out
 from cml_edge.backends.device import Backend, CostModel, DeviceSpec, Knob, Report, Tolerance
-from cml_edge.backends.dispatch import Kernels
+from cml_edge.backends.dispatch import Kernels, register
 from cml_edge.backends.fields import check_ranges, check_types, resolve
 from cml_edge.backends.params import build_record, kernel_record
 from cml_edge.errors import InputError
@@ -64,10 +64,11 @@ NAME = re.compile(r"[a-z][a-z0-9_-]{0,39}\Z")
 class KitArray(SynapticArray):
     """The synaptic array of a kit device; one subclass per device (:func:`Device`).
 
-    State: ``W`` the stored weights (column-major), ``acc`` the update accumulated until
-    ``commit``, ``cells`` each cell's own parameters, ``buf`` a read's driven inputs and
-    an update's row factors (work space), ``clock`` the idle seconds since programming,
-    the device's constants, ``rng`` its stream (key, counter), ``params`` the record and
+    State: ``W`` the stored weights (column-major if tall, row-major if wide), ``acc`` the
+    update accumulated until ``commit`` (laid out alike), ``cells`` each cell's own
+    parameters, ``buf`` and ``idx`` a read's driven inputs and their indices, an update's
+    row factors (work space), ``clock`` the idle seconds since programming, the device's
+    constants, ``rng`` its stream (key, counter), ``params`` the record and
     ``counters``."""
 
     counter_names = codegen.COUNTER_NAMES
@@ -92,13 +93,14 @@ class KitArray(SynapticArray):
                               w_scale=float(np.abs(W).max()) or 1.0)
         rows, cols = W.shape
         state = cls.State(
-            W=np.zeros(W.shape, order="F"), acc=np.zeros(W.shape, order="F"),
+            W=laid_out(np.zeros(W.shape)), acc=laid_out(np.zeros(W.shape)),
             cells=np.zeros((rows, cols, len(cls.spec_cell_fields))),
-            buf=np.zeros(max(rows, cols)), clock=np.zeros(1),
+            buf=np.zeros(max(rows, cols)), idx=np.zeros(max(rows, cols), np.int64),
+            clock=np.zeros(1),
             **{k: v.copy() for k, v in cls.constants.items()},
             rng=np.array([stream_key(int(seed), STREAM_DEVICE + int(index)), 0], np.uint64),
             params=params, counters=np.zeros(len(cls.counter_names), np.int64))
-        cls.module.program(state, np.asfortranarray(W))
+        cls.module.program(state, W)
         return cls(state, config)
 
     spec_cell_fields: ClassVar[tuple[str, ...]] = ()
@@ -114,8 +116,7 @@ class KitArray(SynapticArray):
         if want != saved:
             raise InputError(f"the saved {cls.name} parameters {tuple(saved)} differ from "
                              f"those of its options {tuple(want)}")
-        return cls(state._replace(W=np.asfortranarray(state.W),
-                                  acc=np.asfortranarray(state.acc),
+        return cls(state._replace(W=laid_out(state.W), acc=laid_out(state.acc),
                                   cells=np.ascontiguousarray(state.cells)), config)
 
     def to_float(self) -> np.ndarray:
@@ -203,7 +204,7 @@ def Device(name: str, config: type | None = None, *, write: Callable | None = No
            knobs: tuple[Knob, ...] = (), cost: CostModel | None = None,
            tolerance: Tolerance | Mapping[str | None, Tolerance] | None = None,
            weight_bits: int = 64, description: str | None = None,
-           report: Report | None = None) -> DeviceSpec:
+           report: Report | None = None, characterize: Any = None) -> DeviceSpec:
     """The :class:`~cml_edge.backends.device.DeviceSpec` of a device given by its physics
     (module docstring). ``presets``: named field values (``--preset``; the first is the
     default); ``knobs``: what a break point may sweep; ``cost``: which sourced constants
@@ -211,7 +212,9 @@ def Device(name: str, config: type | None = None, *, write: Callable | None = No
     ``tolerance``: how closely an update must follow the local rule, with the reason
     (:class:`~cml_edge.backends.device.Tolerance`, or one per preset); ``weight_bits``:
     the bits a chip holds per weight (the budget's parameter memory); ``description``:
-    the line ``--help`` shows. InputError naming what is wrong."""
+    the line ``--help`` shows; ``characterize``: the device's own ``cml-edge device
+    characterize`` (:class:`~cml_edge.backends.device.DeviceSpec`). InputError naming
+    what is wrong."""
     if not isinstance(name, str) or not NAME.match(name):
         raise InputError(f"device name {name!r} is not a lower-case name of 1-40 letters, "
                          "digits, '-' or '_' starting with a letter")
@@ -249,30 +252,31 @@ def Device(name: str, config: type | None = None, *, write: Callable | None = No
     module.Params = params
     state = NamedTuple("State", [("W", np.ndarray), ("acc", np.ndarray),
                                  ("cells", np.ndarray), ("buf", np.ndarray),
-                                 ("clock", np.ndarray),
+                                 ("idx", np.ndarray), ("clock", np.ndarray),
                                  *[(k, np.ndarray) for k in constants],
                                  ("rng", np.ndarray), ("params", params),
                                  ("counters", np.ndarray)])
     state.__module__, state.__qualname__ = module.__name__, "State"
     module.State = state
+    kernels = Kernels(module.seam_matvec, module.seam_rmatvec, module.seam_outer_update,
+                      module.seam_commit, module.seam_sigmoid)
     array = type(f"{_camel(name)}Array", (KitArray,), {
         "name": name, "State": state, "module": module, "constants": constants,
         "bits": weight_bits, "spec_cell_fields": tuple(cell_fields),
         "__module__": module.__name__})
     module.Array = array
+    register(state, kernels)  # its arrays work through the seam, registered or not
     if isinstance(tolerance, Tolerance):
         tolerance = {None: tolerance}
     doc = (description or (config.__doc__ if config is not None else None) or
            f"a device of the kit ({origin})").strip().splitlines()[0]
     spec = DeviceSpec(
         array_class=array,
-        kernels=Kernels(module.seam_matvec, module.seam_rmatvec, module.seam_outer_update,
-                        module.seam_commit, module.seam_sigmoid),
-        config_class=config_class,
+        kernels=kernels, config_class=config_class,
         backends={name: Backend(doc, preset=default, fixed=False)} if default else
         {name: Backend(doc)},
         presets=presets, knobs=tuple(knobs), cost=cost, report=report or Report(),
-        tolerance=dict(tolerance or {}), plain=module,
+        tolerance=dict(tolerance or {}), plain=module, characterize=characterize,
         draws=any("rng" in inspect.signature(fn).parameters for fn in plain.values()))
     array.spec = spec
     return spec
