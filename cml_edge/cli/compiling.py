@@ -79,6 +79,5 @@ class _Notice(event.Listener):
 def announce_compiles(args: argparse.Namespace) -> Iterator[None]:
     """While the command of ``args`` runs, print the line of the module docstring at the
     first compile of a cml_edge function."""
-    with notice.quiet(), event.install_listener("numba:compile",
-                                                _Notice(*what_compiles(args))):
+    with event.install_listener("numba:compile", _Notice(*what_compiles(args))):
         yield

@@ -6,22 +6,21 @@ cold cache, in silence. :func:`install` (run when :mod:`cml_edge.jit` is importe
 for Numba's compile events and, at the first compile of a package or kit function in the
 process, says what is happening once: through the ``logging`` logger ``cml_edge`` (at INFO)
 when the program has configured logging, else as a line on stderr. The command line says
-it its own way (:mod:`cml_edge.cli.compiling`) and keeps this one quiet (:func:`quiet`).
+it its own way (:mod:`cml_edge.cli.compiling`): in a process that has imported
+:mod:`cml_edge.cli`, this one says nothing.
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import sys
-from collections.abc import Iterator
 
 from numba.core import config, event
 
 LOGGER = logging.getLogger("cml_edge")
 OURS = ("cml_edge.", "cml_edge_kit_")
 """The modules whose compiles are announced: the package's and the kit's generated ones."""
-_STATE = {"said": False, "quiet": 0, "installed": False}
+_STATE = {"said": False, "installed": False}
 
 
 def say(message: str) -> None:
@@ -34,7 +33,7 @@ def say(message: str) -> None:
 
 class _FirstCompile(event.Listener):
     def on_start(self, ev: event.Event) -> None:
-        if _STATE["said"] or _STATE["quiet"]:
+        if _STATE["said"] or "cml_edge.cli" in sys.modules:
             return
         func = getattr(ev.data["dispatcher"], "py_func", None)
         if not getattr(func, "__module__", "").startswith(OURS):
@@ -45,16 +44,6 @@ class _FirstCompile(event.Listener):
 
     def on_end(self, ev: event.Event) -> None:
         pass
-
-
-@contextlib.contextmanager
-def quiet() -> Iterator[None]:
-    """No notice while inside (a caller that says it its own way)."""
-    _STATE["quiet"] += 1
-    try:
-        yield
-    finally:
-        _STATE["quiet"] -= 1
 
 
 def install() -> None:
