@@ -181,3 +181,46 @@ def test_removing_a_plugin_leaves_every_built_in_command_working(tmp_path):
             done = cml_edge(*command)
             assert done.returncode == 0 and "Traceback" not in done.stderr, \
                 (backend, command, done.stderr[-2000:])
+
+
+def test_the_report_runs_a_plugins_device_when_asked(fresh, cli, tmp_path, monkeypatch):
+    import cml_edge.report as report
+
+    path = _plugin(tmp_path, "plug_r", "plug-r")
+    seen = {}
+
+    def build_report(**kwargs):
+        seen.update(kwargs)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(report, "build_report", build_report)
+    with pytest.raises(SystemExit):
+        cli("--plugin", path, "report", "--out", tmp_path / "r", "--with", "plug-r",
+            "--with", "int8")
+    systems = [s[0] for s in seen["systems"]]
+    assert systems.count("plug-r") == 1 and systems.count("int8") == 1  # int8: already in
+    assert ("plug-r", "plug-r", {}) in seen["scorecard"].devices
+    code, _, err = cli("report", "--out", tmp_path / "r2", "--with", "nope")
+    assert code == 2 and "unknown backend 'nope'" in err
+
+
+@pytest.mark.slow
+def test_a_plugins_device_in_the_other_commands(fresh, cli, tmp_path):
+    """emulate with chips, a scenario, a sweep's device list and the bench take it."""
+    import json
+
+    from cml_edge.backends import configurations
+
+    plugin = "cml_edge.kit.examples.ternary"
+    code, out, err = cli("--plugin", plugin, "emulate", "--backend", "ternary", "--chips", 3,
+                         "--seeds", 1, *SMALL, "--trials", 5, "--json")
+    assert code == 0, err
+    assert json.loads(out)["chips"]["n"] == 3
+    code, out, err = cli("--plugin", plugin, "scenario", "paper", "--backend", "ternary",
+                         "--seeds", 1, "--quick", "--out", tmp_path / "s", "--json")
+    assert code == 0, err
+    assert ("ternary", "ternary", {}) in configurations()
+    code, out, err = cli("--plugin", plugin, "bench", "--backends", "ternary", "--repeats", 1,
+                         "--json")
+    assert code == 0, err
+    assert "ternary" in json.loads(out)["backends"]

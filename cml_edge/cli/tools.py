@@ -6,10 +6,11 @@ import argparse
 import sys
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from cml_edge.backends import BACKENDS
+from cml_edge.backends import BACKENDS, configurations, report_systems
 from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
 from cml_edge.cli.output import num, plural, table
 from cml_edge.errors import InputError
@@ -62,6 +63,10 @@ def add_parsers(sub) -> None:
                         "the distributed extra)")
     p.add_argument("--restart", action="store_true",
                    help="start over a report interrupted in --out (it resumes without)")
+    p.add_argument("--with", dest="with_", action="append", default=[],
+                   metavar="BACKEND[:PRESET]",
+                   help="also run this device in the budget and the scorecard (repeatable: a "
+                        "plugin's device, or a configuration the report leaves out)")
     p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
     p.set_defaults(run=cmd_report)
 
@@ -89,6 +94,7 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.baselines.settings import RESULTS_PATH
     from cml_edge.engine.sweep import check_scheduler
     from cml_edge.report import build_report, write_report
+    from cml_edge.report.scorecard import ScorecardPlan
 
     if args.dqn_results is not None and not Path(args.dqn_results).is_file():
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
@@ -97,8 +103,12 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
         check_scheduler(args.scheduler)
     writable_folder(args.out, "--out")
     writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
+    extra = [c for c in configurations(args.with_) if c not in report_systems()]
+    plan = ScorecardPlan.of(args.quick)
     say_estimate()
     report = build_report(quick=args.quick, command=command_line(),
+                          systems=report_systems() + extra,
+                          scorecard=replace(plan, devices=plan.devices + extra),
                           progress=StageProgress("report"),
                           dqn_results=args.dqn_results or RESULTS_PATH, folder=args.out,
                           workers=args.workers, scheduler=args.scheduler,
