@@ -124,12 +124,17 @@ def _devices(found: Any, plugin: str) -> list[DeviceSpec]:
 
 
 def _stamp(device: DeviceSpec, source: str) -> Path:
-    """Where the contract's verdict on this version of ``device`` is kept."""
+    """Where the contract's verdict on this version of ``device`` is kept: keyed by the
+    plugin's source, the device's generated code and constants (a measured table), and
+    cml-edge's own sources (the cache folder's name)."""
     from numba.core import config
 
     digest = hashlib.sha256(source.encode())
     digest.update(device.name.encode())
-    digest.update(str(config.CACHE_DIR).encode())  # keyed by cml-edge's sources
+    digest.update(getattr(device.array_class, "__module__", "").encode())
+    for name, table in sorted(getattr(device.array_class, "constants", {}).items()):
+        digest.update(name.encode() + table.tobytes())
+    digest.update(str(config.CACHE_DIR).encode())
     base = Path(config.CACHE_DIR or Path.home() / ".cache" / "cml_edge")
     return base / "kit" / "verdicts" / f"{device.name}-{digest.hexdigest()[:16]}.json"
 
