@@ -28,6 +28,10 @@ A seeded figure carries a marker, an HTML comment right above its table or sente
   of its target (a table row, or the whole paragraph).
 - A timing figure is not seeded: it is listed, never run or checked.
 
+A value that matches only within the tolerance a seed promises across machines
+(``cml_edge/machines.py``: a figure computed on another CPU may round the other way in its
+last printed digit) is reported as "matches (other CPU)".
+
 Prints one line per figure (match, MISMATCH, error, skipped when the command needs an
 optional extra that is not installed, or timing) with the seconds its command took, and
 exits 1 if any figure does not match or its command fails.
@@ -39,6 +43,7 @@ import argparse
 import dataclasses
 import importlib.util
 import json
+import math
 import os
 import re
 import shlex
@@ -50,6 +55,9 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # the checkout's package
+from cml_edge.machines import ABS, REL  # noqa: E402
+
 RUNNER = "import sys; from cml_edge.cli import main; sys.exit(main(sys.argv[1:]))"
 MARKER = re.compile(r"<!--\s*(figure|timing)\b(.*?)-->", re.S)
 HEAD = re.compile(r"^(?:\s+rows?\s+(\d+)(?:-(\d+))?)?(?:\s+cols?\s+(\d+)(?:-(\d+))?)?\s*:\s*(.*)$",
@@ -288,25 +296,38 @@ def formatted(value: Any, fmt: str) -> str:
     return _normal(format(value, fmt))
 
 
-def compare(fig: Figure, data: Any) -> list[str]:
-    """The problems of a figure against its command's output (empty: it matches)."""
-    problems = []
+def readings(value: Any, fmt: str) -> list[str]:
+    """How the page may print ``value``: as it is, then as the ends of the tolerance a
+    seed promises across machines (``cml_edge.machines``: a figure computed on another CPU
+    may differ in its last bits, and so round the other way)."""
+    exact = formatted(value, fmt)
+    if not isinstance(value, float) or not math.isfinite(value):
+        return [exact]
+    slack = REL * abs(value) + ABS
+    return [exact, formatted(value - slack, fmt), formatted(value + slack, fmt)]
+
+
+def compare(fig: Figure, data: Any) -> tuple[list[str], bool]:
+    """The problems of a figure against its command's output (empty: it matches), and
+    whether a value matched only within the cross-machine tolerance."""
+    problems, other_cpu = [], False
     for (lineno, text), group in zip(fig.targets, fig.groups):
         try:
-            want = [formatted(lookup(data, v.key), v.fmt) for v in group]
+            want = [readings(lookup(data, v.key), v.fmt) for v in group]
         except (KeyError, IndexError, TypeError, ValueError, AttributeError) as exc:
             problems.append(f"line {lineno}: {exc!r}")
             continue
         have = [_normal(t) for t in NUMBER.findall(text)]
         pos = 0
         for v, w in zip(group, want):
-            try:
-                pos = have.index(w, pos) + 1
-            except ValueError:
-                problems.append(f"line {lineno}: {v.key} gives {w}; the page shows "
+            at = next((have.index(r, pos) for r in w if r in have[pos:]), None)
+            if at is None:
+                problems.append(f"line {lineno}: {v.key} gives {w[0]}; the page shows "
                                 f"{' '.join(have) or 'no number'}")
                 break
-    return problems
+            other_cpu |= have[at] != w[0]
+            pos = at + 1
+    return problems, other_cpu
 
 
 def _run(fig: Figure, rerun: bool, timeout: float | None) -> tuple[Any, float]:
@@ -374,10 +395,11 @@ def check(figures: list[Figure], rerun: bool = False, timeout: float | None = No
         data, seconds = got
         if first_run[key] != fig.where:
             seconds = 0.0
-        problems = compare(fig, data)
+        problems, other_cpu = compare(fig, data)
         status = "MISMATCH" if problems else "match"
         counts[status] += 1
-        echo(f"{status:<9} {seconds:7.1f}s  {fig.where}  {fig.command}{source}")
+        shown = "matches (other CPU)" if status == "match" and other_cpu else status
+        echo(f"{shown:<9} {seconds:7.1f}s  {fig.where}  {fig.command}{source}")
         for p in problems:
             echo(f"    {p}")
     echo("; ".join(f"{n} {k.lower()}" for k, n in counts.items()))

@@ -3,6 +3,7 @@ wording, and figure markers that parse, name valid commands and can fail."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shlex
@@ -149,3 +150,20 @@ def test_checker_reruns_a_command_and_reports_a_wrong_number(tmp_path):
     assert out[0].startswith("match") and out[1].startswith("MISMATCH"), proc.stdout
     assert "success_rate gives" in proc.stdout and "9.999" in proc.stdout
     assert shlex.split(command.split(" && ")[0])[0] == "cml-edge"
+
+
+def test_checker_reports_a_figure_within_the_cross_machine_tolerance(tmp_path):
+    """A value that rounds the other way in its last printed digit within the tolerance a
+    seed promises across machines matches "(other CPU)"; one beyond it does not."""
+    results = tmp_path / "r.json"
+    results.write_text(json.dumps({"x": 0.123449999999999}))
+    page = tmp_path / "page.md"
+    marker = f"<!-- figure: cml-edge evaluate m.npz --json -> x:.4f @ {results} -->\n"
+    page.write_text(marker + "It is 0.1235.\n")
+    proc = subprocess.run([sys.executable, str(CHECKER), str(page)], capture_output=True,
+                          text=True)
+    assert proc.returncode == 0 and proc.stdout.startswith("matches (other CPU)"), proc.stdout
+    page.write_text(marker + "It is 0.1236.\n")
+    proc = subprocess.run([sys.executable, str(CHECKER), str(page)], capture_output=True,
+                          text=True)
+    assert proc.returncode == 1 and "x gives 0.1234" in proc.stdout

@@ -9,6 +9,7 @@ import pytest
 
 from cml_edge.core.world import WORLDS, World, get_world
 from cml_edge.errors import InputError
+from cml_edge.machines import differences
 from cml_edge.scenarios import SCENARIOS, run_scenario
 from cml_edge.scenarios.runner import scenario_tasks
 from cml_edge.scenarios.tasks import TASK_FN, scenario_task
@@ -57,5 +58,5 @@ def test_the_robot_does_not_relearn():
 @pytest.mark.parametrize("name", sorted(GOLDEN))
 def test_the_same_json_as_before(name):
     result = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
-    assert json.dumps(_numbers(result), indent=1) == \
-        json.dumps(_numbers(GOLDEN[name]), indent=1)  # keys, order, values
+    # keys, order and values: integers exact, floats as a seed promises across machines
+    assert differences(json.loads(json.dumps(_numbers(result))), _numbers(GOLDEN[name])) == []
