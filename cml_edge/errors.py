@@ -23,3 +23,8 @@ class InputError(ValueError):
 class RunError(Exception):
     """A run stopped by its surroundings, not its input; the message says what happened,
     what finished and how to resume."""
+
+
+class PluginError(InputError):
+    """A plugin that cannot be used, or a file whose device needs a plugin that is not
+    loaded (:mod:`cml_edge.backends.plugins`); the message names the plugin."""

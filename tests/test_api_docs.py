@@ -1,4 +1,4 @@
-"""docs/api.md runs as written: its Python blocks, in order, in one session; and a library
+"""docs/api.md runs as written: its Python blocks, in order, in one process; and a library
 user hears of the first compile (stderr, or the ``cml_edge`` logger when logging is set)."""
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def test_the_page_has_its_sections():
 
 
 @pytest.mark.slow
-def test_the_pages_blocks_run_in_one_session(tmp_path):
+def test_the_pages_blocks_run_in_one_process(tmp_path):
     done = _run("\n\n".join(python_blocks()), tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     assert "success_rate" in done.stdout and (tmp_path / "int8-model.npz").is_file()

@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cml_edge import plugins
-from cml_edge.backends import BACKENDS, DEVICES, unregister_device
+from cml_edge.backends import BACKENDS, DEVICES, plugins, unregister_device
 
 ROOT = Path(__file__).resolve().parent.parent
 DEVICE_FILE = textwrap.dedent('''

@@ -201,9 +201,10 @@ class DeviceSpec:
     - ``origin``: the plugin that defined the device (a file or module name; None: built
       in), recorded in its model files;
     - ``characterize``: the device's own ``cml-edge device characterize`` (an object with
-      ``run(spec, options, devices, seed, progress)`` giving a JSON-able result,
-      ``figure(result)`` and ``show(result)``; None: the command has no model of it, but
-      for the crossbar's own).
+      ``run(spec, options, devices, seed, progress)`` giving a JSON-able result with
+      ``title``, ``rows`` (dicts of one kind) and ``summary``, which the command prints,
+      and ``figure(result)``; None: the command has no model of it, but for the
+      crossbar's own).
     """
 
     array_class: type

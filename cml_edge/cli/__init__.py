@@ -39,7 +39,8 @@ import argparse
 import os
 import sys
 
-from cml_edge import __version__, plugins
+from cml_edge import __version__
+from cml_edge.backends import plugins
 from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
 from cml_edge.cli.args import hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles

@@ -158,6 +158,22 @@ def show_against(r: dict[str, Any]) -> None:
               f"inert on a lone device: {', '.join(r['aihwkit_preset']['inert'])}")
 
 
+def show_own(r: dict[str, Any]) -> None:
+    """A device's own characterisation: its title, its rows as a table, its summary."""
+    from cml_edge.cli.output import num, table
+
+    def cell(v: Any) -> str:
+        if isinstance(v, bool):
+            return "yes" if v else "NO"
+        return num(v, 3) if isinstance(v, float) else str(v)
+
+    header = list(r["rows"][0]) if r["rows"] else []
+    print(r["title"])
+    print("\n".join("  " + line for line in table([[cell(row[k]) for k in header]
+                                                    for row in r["rows"]], header)))
+    print(f"  {r['summary']}")
+
+
 def show_characterize(r: dict[str, Any]) -> None:
     """One row per target conductance: programmed, drifted, read noise, one pulse's step
     (``--json``: every measurement); ``--against``: :func:`show_against`."""
@@ -165,7 +181,7 @@ def show_characterize(r: dict[str, Any]) -> None:
         show_against(r)
         return
     if r.get("characterization") == "own":
-        DEVICES[r["device"]].characterize.show(r)
+        show_own(r)
         return
     from cml_edge.backends.crossbar.characterize import pulses_text, time_text
     from cml_edge.cli.output import num, table

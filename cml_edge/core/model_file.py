@@ -18,9 +18,8 @@ import numpy as np
 
 from cml_edge.backends import array_from_state_dict
 from cml_edge.core.cml import CML, CMLConfig
-from cml_edge.errors import InputError
+from cml_edge.errors import InputError, PluginError
 from cml_edge.io.files import atomic_write
-from cml_edge.plugins import PluginError
 
 FORMAT = "cml-edge-model"
 FORMAT_VERSION = 1

@@ -16,7 +16,7 @@
     DEVICE = Device("ternary", Ternary, write=write)
 
 :func:`Device` builds the rest (:mod:`cml_edge.kit.device`); ``cml-edge --plugin FILE``
-finds it (:mod:`cml_edge.plugins`); :func:`cml_edge.backends.check_device` holds it to the
+finds it (:mod:`cml_edge.backends.plugins`); :func:`cml_edge.backends.check_device` holds it to the
 contract. :func:`from_measurements` builds a device from a lab's pulse measurements
 (:mod:`cml_edge.kit.measured`). Tutorial: docs/your-device.md.
 """

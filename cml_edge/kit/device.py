@@ -28,7 +28,7 @@ stored with the state and so in every model file.
 The kit writes the seam's loops around these functions, compiles them and runs the same
 text as plain Python for the readable reference (:mod:`cml_edge.kit.codegen`), and
 returns a :class:`~cml_edge.backends.device.DeviceSpec`: registered by a plugin
-(:mod:`cml_edge.plugins`) or :func:`cml_edge.backends.register_device`, it runs in every
+(:mod:`cml_edge.backends.plugins`) or :func:`cml_edge.backends.register_device`, it runs in every
 command, and :func:`cml_edge.backends.check_device` holds it to the contract.
 """
 

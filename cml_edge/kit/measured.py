@@ -333,6 +333,12 @@ class Characterization:
                                     "within": abs(mm - dm) <= self.TOLERANCE * span})
         out["within"] = sum(r["within"] for r in out["rows"])
         out["rows_total"] = len(out["rows"])
+        out["title"] = (f"{spec.name}: fitted to {data.path} ({len(f.grid)} bins, range "
+                        f"{f.g_lo:.3g}..{f.g_hi:.3g}, mean step {f.pulse:.3g}, "
+                        f"device-to-device {100 * f.d2d_up:.1f} % up, "
+                        f"{100 * f.d2d_down:.1f} % down); {devices:,} devices, seed {seed}")
+        out["summary"] = (f"{out['within']} / {out['rows_total']} points within "
+                          f"{self.TOLERANCE:.0%} of the range")
         return out
 
     def figure(self, result: dict[str, Any]) -> Any:
@@ -357,20 +363,3 @@ class Characterization:
                      f"{result.get('command', 'cml-edge device characterize')}", fontsize=9)
         fig.tight_layout()
         return fig
-
-    def show(self, result: dict[str, Any]) -> None:
-        from cml_edge.cli.output import num, table
-
-        fit_ = result["fit"]
-        print(f"{result['device']}: fitted to {result['data']} ({fit_['bins']} bins, range "
-              f"{num(fit_['g_lo'])}..{num(fit_['g_hi'])}, mean step {num(fit_['mean_step'])}, "
-              f"device-to-device {100 * fit_['d2d_up']:.1f} % up, "
-              f"{100 * fit_['d2d_down']:.1f} % down); {result['devices']:,} devices, "
-              f"seed {result['seed']}")
-        rows = [[r["direction"], r["pulse"], f"{num(r['data_mean'])}+-{num(r['data_std'], 2)}",
-                 f"{num(r['model_mean'])}+-{num(r['model_std'], 2)}",
-                 "yes" if r["within"] else "NO"] for r in result["rows"]]
-        header = ["direction", "pulse", "measured", "fitted device", "within 10 %"]
-        print("\n".join("  " + line for line in table(rows, header)))
-        print(f"  {result['within']} / {result['rows_total']} points within "
-              f"{result['tolerance']:.0%} of the range")

@@ -33,9 +33,8 @@ import numpy as np
 
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.model_file import cml_arrays, cml_from_arrays, read_npz
-from cml_edge.errors import InputError
+from cml_edge.errors import InputError, PluginError
 from cml_edge.io.files import atomic_write
-from cml_edge.plugins import PluginError
 from cml_edge.robot.observation import RobotCMLSettings
 from cml_edge.robot.planning import (
     BASE_POSE,

@@ -181,7 +181,7 @@ def test_device_characterize_help_names_crossbar():
     sub = build_parser()._subparsers._group_actions[0].choices["device"]
     char = sub._subparsers._group_actions[0].choices["characterize"]
     text = char.format_help()
-    assert "default float" not in text and "crossbar, the one characterised (default)" in text
+    assert "default float" not in text and "the device: crossbar (default" in text
 
 
 def test_the_compile_notice_is_one_line_at_the_first_compile(capsys):

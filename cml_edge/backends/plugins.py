@@ -22,7 +22,7 @@ point, whose devices are then left out while everything else keeps working.
 
 A model file records the plugin each of its arrays came from (``__origin__`` in its state,
 :meth:`~cml_edge.backends.base.SynapticArray.state_dict`); loading it without that plugin is
-one line naming the plugin and how to load it (:func:`missing`).
+one line naming the plugin and how to load it (:mod:`cml_edge.backends.registry`).
 """
 
 from __future__ import annotations
@@ -39,18 +39,22 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from cml_edge.backends import DEVICES, DeviceSpec, check_device, register_device, unregister_device
-from cml_edge.errors import InputError
+from cml_edge.backends.device import DeviceSpec
+from cml_edge.backends.registry import (
+    DEVICES,
+    PLUGINS_ENV,
+    check_device,
+    register_device,
+    unregister_device,
+    when_unknown,
+)
+from cml_edge.errors import InputError, PluginError
 
-ENV = "CML_EDGE_PLUGINS"
+ENV = PLUGINS_ENV
 GROUP = "cml_edge.devices"
 LOADED: dict[str, list[str]] = {}
 """Each plugin loaded (as :func:`origin` names it) -> the names of its devices."""
 _ENVIRONMENT_LOADED = False
-
-
-class PluginError(InputError):
-    """A plugin that cannot be used: the message names it and what is wrong."""
 
 
 class PluginWarning(UserWarning):
@@ -278,11 +282,4 @@ def load_given(plugins: list[str]) -> list[str]:
     return load_environment(warn=False)
 
 
-def missing(kind: str, origin_: str | None) -> InputError:
-    """The error for a saved array of a device that is not registered: naming the plugin
-    that made it and how to load it, when the file says."""
-    if origin_:
-        return PluginError(f"the array kind {kind!r} comes from the plugin {origin_!r}, which "
-                           f"is not loaded: give cml-edge --plugin {origin_} (before the "
-                           f"command), or add it to {ENV}")
-    return InputError(f"unknown array kind {kind!r}; known: {', '.join(sorted(DEVICES))}")
+when_unknown(load_environment)  # a name not registered may be a plugin's
