@@ -206,3 +206,28 @@ def test_the_vocabulary_table_of_the_tutorial_is_the_kits():
         row = next(line for line in page.splitlines() if line.startswith(f"| `{kind}` |"))
         named = row.split("|")[3]
         assert [a.strip(" `") for a in named.split(",")] == list(args), kind
+
+
+def test_presets_are_named_configurations_with_their_own_tolerance(cli, tmp_path):
+    from cml_edge.backends import configurations, make_array
+
+    spec = Device("gain-presets", Gain, write=gain_write,
+                  presets={"even": {"up": 1.0, "down": 1.0}, "skewed": {"up": 2.0}},
+                  tolerance={"skewed": Tolerance(0.8, (0.6, 2.2), why="its up steps are "
+                                                 "twice as large as asked")})
+    register_device(spec)
+    try:
+        assert configurations(["gain-presets"]) == [
+            ("gain-presets-even", "gain-presets", {"preset": "even"}),
+            ("gain-presets-skewed", "gain-presets", {"preset": "skewed"})]
+        arr = make_array("gain-presets", np.zeros((2, 2)), seed=0, index=0, preset="skewed")
+        assert arr.config.up == 2.0 and arr.config.down == 0.75
+        assert spec.tolerance_of({"preset": "skewed"}).why.startswith("its up steps")
+        assert spec.tolerance_of({"preset": "even"}).correlation == 0.8
+        check_device(spec)
+        code, _, err = cli("train", "--backend", "gain-presets", "--preset", "nope",
+                           "--arena", 8, "--walks", 1, "--steps", 10, "--out",
+                           tmp_path / "m.npz")
+        assert code == 2 and "unknown gain-presets preset 'nope'" in err
+    finally:
+        unregister_device(spec)
