@@ -102,15 +102,16 @@ def test_nothing_outside_the_command_line_imports_it():
     assert users == []
 
 
-def test_the_import_graph_has_no_cycle():
-    """Depth-first search; a cycle is reported as the chain of modules that closes it."""
+def first_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """Depth-first search: the first chain of nodes that leads back to where it started,
+    or None."""
     state: dict[str, int] = {}  # 1 on the current path, 2 done
     path: list[str] = []
 
     def visit(m: str) -> list[str] | None:
         state[m] = 1
         path.append(m)
-        for d in sorted(GRAPH[m]):
+        for d in sorted(graph.get(m, ())):
             if state.get(d) == 1:
                 return path[path.index(d):] + [d]
             if d not in state and (cycle := visit(d)):
@@ -119,5 +120,41 @@ def test_the_import_graph_has_no_cycle():
         path.pop()
         return None
 
-    cycles = [cycle for m in sorted(GRAPH) if m not in state and (cycle := visit(m))]
-    assert cycles == [], " -> ".join(cycles[0])
+    return next((cycle for m in sorted(graph) if m not in state and (cycle := visit(m))),
+                None)
+
+
+def test_the_import_graph_has_no_cycle():
+    """A cycle is reported as the chain of modules that closes it."""
+    cycle = first_cycle(GRAPH)
+    assert cycle is None, " -> ".join(cycle)
+
+
+def subpackage(module: str) -> str:
+    """``cml_edge.grid.maps`` -> ``cml_edge.grid``; a top-level module is its own."""
+    return ".".join(module.split(".")[:2])
+
+
+PACKAGE_GRAPH: dict[str, set[str]] = {}
+for _m, _deps in GRAPH.items():
+    PACKAGE_GRAPH.setdefault(subpackage(_m), set()).update(
+        subpackage(d) for d in _deps if subpackage(d) != subpackage(_m))
+
+
+def test_the_subpackages_import_one_another_without_a_cycle():
+    """Layers, not a web: no chain of subpackages (core -> backends -> ... -> core) leads
+    back to where it started, at module level or through a deferred import. Reported as
+    the chain and, for its first link, the modules that make it."""
+    cycle = first_cycle(PACKAGE_GRAPH)
+    if cycle is not None:
+        a, b = cycle[0], cycle[1]
+        links = sorted(f"{m} -> {d}" for m, deps in GRAPH.items() if subpackage(m) == a
+                       for d in deps if subpackage(d) == b)
+        pytest.fail(" -> ".join(cycle) + f" (first link: {', '.join(links)})")
+
+
+def test_the_engine_imports_nothing_above_it():
+    """engine/ runs tasks, stops and timings: it knows no command, option or scenario."""
+    assert PACKAGE_GRAPH["cml_edge.engine"] <= {"cml_edge", "cml_edge.core", "cml_edge.errors",
+                                                "cml_edge.io", "cml_edge.jit",
+                                                "cml_edge.protocol", "cml_edge.sizes"}

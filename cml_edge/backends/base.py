@@ -22,12 +22,7 @@ import numpy as np
 from cml_edge.backends.dispatch import sa_commit, sa_matvec, sa_outer_update, sa_rmatvec, sa_sigmoid
 from cml_edge.backends.params import is_record, record_from_array, record_names, record_to_array
 from cml_edge.errors import InputError
-
-MAX_IDLE_S = 3.15576e9
-"""The longest idle time a run lets pass on its arrays (``--drift-time``, the drift-time
-knob of the break points): 100 years. Drift is measured to ~1e6 s and its power law
-extrapolated beyond; past a century it describes no device (a device maker's retention
-figure is 10 years)."""
+from cml_edge.sizes import MAX_IDLE_S  # noqa: F401  (the backends' name for it)
 
 
 class SynapticArray:

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.errors import InputError
+from cml_edge.sizes import ascii_number
 
 MATRICES = ("W_q", "W_k", "W_v")
 _TRUE = ("1", "true", "yes", "on")
@@ -235,9 +236,9 @@ def parse_setting(cls: type, text: str, label: str) -> tuple[str, Any]:
 def _parse_scalar(kind: type | None, raw: str, name: str, whole: str) -> Any:
     try:
         if kind is float:
-            return float(raw)
+            return ascii_number(raw, float)
         if kind is int:
-            return int(raw)
+            return ascii_number(raw, int)
         if kind is bool:
             low = raw.lower()
             if low not in _TRUE + _FALSE:

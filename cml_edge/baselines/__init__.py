@@ -9,16 +9,18 @@ gymnasium only when they run.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from cml_edge.baselines.settings import RESULTS_PATH
 from cml_edge.errors import InputError
+from cml_edge.io.reading import MiB, read_text, strict_json
 
 RESULTS_FORMAT = "cml-edge-dqn-results"
 RESULTS_VERSION = 1
+RESULTS_BYTES = 64 * MiB
+"""The largest DQN results file read (a run's curves and evaluations: ~1 MB for ten)."""
 
 
 def mlp_parameter_count(layers: Sequence[int]) -> int:
@@ -42,20 +44,55 @@ def load_results(path: str | Path = RESULTS_PATH) -> dict[str, Any] | None:
     Needs no extra: this is how the hardware-budget report reads the baseline.
     """
     path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{str(path)!r} is a folder, not a DQN results file")
-    if not path.is_file():
+    if not path.exists() and not path.is_symlink():
         return None
     try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{str(path)!r} is not a readable DQN results file "
-                         f"({type(exc).__name__})") from None
+        data = strict_json(read_text(path, "DQN results file", RESULTS_BYTES))
+    except ValueError as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{str(path)!r} is not a readable DQN results file ({exc})") from None
     if not isinstance(data, dict) or data.get("format") != RESULTS_FORMAT:
         raise InputError(f"{str(path)!r} is not a cml-edge DQN results file")
+    problem = _problem(data)
+    if problem:
+        raise InputError(f"{str(path)!r} is a corrupted DQN results file ({problem})")
+    return data
+
+
+def _problem(data: dict[str, Any]) -> str | None:
+    """What in a results file the report and the DQN commands could not use, or None."""
     for part in ("runs", "evaluations"):
         entries = data.get(part, {})
         if not (isinstance(entries, dict) and all(isinstance(e, dict) for e in entries.values())):
-            raise InputError(f"{str(path)!r} is a corrupted DQN results file (its {part!r} is "
-                             f"not a table of entries)")
-    return data
+            return f"its {part!r} is not a table of entries"
+    net, hyper = data.get("network", {}), data.get("hyperparameters", {})
+    if data["evaluations"]:
+        if not isinstance(net, dict) or not _layers(net.get("layers")):
+            return "its network has no list of layer sizes"
+        if not isinstance(hyper, dict) or not _count(hyper.get("learning_starts"), 0):
+            return "its hyperparameters have no learning_starts"
+    for key, ev in data["evaluations"].items():
+        if not isinstance(ev.get("reward"), str) or not isinstance(ev.get("goal_conditioned"),
+                                                                   bool):
+            return f"evaluation {key!r} has no reward name or goal_conditioned flag"
+        if ev["goal_conditioned"] and not _layers(net.get("goal_conditioned_layers")):
+            return "its network has no goal-conditioned layer sizes"
+        if "train_steps" in ev and not _count(ev["train_steps"], 1):
+            return f"evaluation {key!r}: train_steps {ev['train_steps']!r}"
+        rate = ev.get("success_rate")
+        if rate is not None and not (isinstance(rate, (int, float)) and 0 <= rate <= 1):
+            return f"evaluation {key!r}: success_rate {rate!r} is not in 0..1"
+        conv = ev.get("convergence")
+        if conv is not None and not (isinstance(conv, dict) and
+                                     (conv.get("step") is None or _count(conv["step"], 0))):
+            return f"evaluation {key!r}: its convergence has no step count"
+    return None
+
+
+def _count(v: Any, least: int) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= least
+
+
+def _layers(v: Any) -> bool:
+    return isinstance(v, list) and len(v) >= 2 and all(_count(n, 1) for n in v)

@@ -19,9 +19,9 @@ long ones (:data:`TIMED`) add it to their ``--json`` object as ``timings``, and
 
 Bad input gets one line on stderr naming the value and what is allowed, exit status
 2, no traceback, and nothing written; every output path is checked before any work.
-Every count, size and seed option has a range (:data:`~cml_edge.cli.args.SIZES`), and
+Every count, size and seed option has a range (:data:`cml_edge.sizes.SIZES`), and
 before any work a run's memory and time are estimated from its sizes
-(:mod:`cml_edge.engine.limits`): a run that would not fit the machine's memory is refused,
+(:mod:`cml_edge.cli.limits`): a run that would not fit the machine's memory is refused,
 a long one prints its estimate on stderr. A run stopped by its surroundings (a full disk,
 a lost Dask scheduler) gets one line and exit status 1; so does a run whose device
 produced NaN or infinity (:mod:`cml_edge.core.finite`: the line names the device, the
@@ -41,12 +41,12 @@ import sys
 
 from cml_edge import __version__
 from cml_edge.backends import plugins
-from cml_edge.cli import device, dqn, export, grid, lava, robot, scenario, tools
-from cml_edge.cli.args import hold_estimate, limit_options
+from cml_edge.cli import device, dqn, export, grid, lava, limits, robot, scenario, tools
+from cml_edge.cli.args import distinct_outputs, hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields, show_profile
 from cml_edge.core.finite import NonFiniteError, check_finite, dumps
-from cml_edge.engine import limits, timings
+from cml_edge.engine import timings
 from cml_edge.engine.stop import interrupt_behind, raise_if_stopped, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
@@ -105,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"cml-edge: warning: {line}", file=sys.stderr)
             parser = build_parser()
             args = parser.parse_args(argv)
+            distinct_outputs(args)
             hold_estimate(limits.check(args))  # refuses what will not fit; said at the start
             with announce_compiles(args), timings.recording() as recorded:
                 result = args.run(args)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -18,15 +19,12 @@ from typing import Any
 from tqdm import tqdm
 
 from cml_edge.backends import BACKENDS, DEVICES, DeviceSpec, backend_spec
-from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.backends.fields import field_names, range_text, scalar_kind
 from cml_edge.errors import InputError
 from cml_edge.io.progress import Bar
+from cml_edge.sizes import SIZES, Size, ascii_number
 
 INT64_MAX = 2**63 - 1
-SEED_MAX = 2**62
-"""The largest seed: stream keys and NumPy's generators take it from an int64 with room
-for the run's seeds and chips added to it."""
 
 
 def int_at_least(lo: int, what: str):
@@ -34,7 +32,7 @@ def int_at_least(lo: int, what: str):
     error."""
     def parse(text: str) -> int:
         try:
-            value = int(text)
+            value = ascii_number(text, int)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer {what}") from None
         if value < lo:
@@ -47,6 +45,7 @@ def int_at_least(lo: int, what: str):
     return parse
 
 
+coordinate = int_at_least(-INT64_MAX, "(a cell coordinate)")
 positive_int = int_at_least(1, ">= 1")
 nonneg_int = int_at_least(0, ">= 0")
 arena_size = int_at_least(2, ">= 2 (the arena side)")
@@ -55,50 +54,12 @@ arena_size = int_at_least(2, ">= 2 (the arena side)")
 def finite_float(text: str) -> float:
     """An argparse type: a finite number."""
     try:
-        value = float(text)
+        value = ascii_number(text, float)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
     return value
-
-
-@dataclass(frozen=True)
-class Size:
-    """The documented range of a count, size or seed option, and its reason."""
-
-    lo: float
-    hi: float
-    why: str
-
-
-SIZES: dict[str, Size] = {
-    "seeds": Size(1, 100_000, "each seed trains one model: seconds to minutes of a core"),
-    "seed": Size(0, SEED_MAX, "a seed of an int64 stream key"),
-    "eval_seed": Size(0, SEED_MAX, "a seed of an int64 stream key"),
-    "first_chip": Size(0, SEED_MAX, "a chip seed of an int64 stream key"),
-    "chips": Size(1, 100_000, "each chip trains every model seed again"),
-    "walks": Size(1, 100_000, "exploration walks (the paper's 100)"),
-    "steps": Size(1, 100_000, "steps per walk (the paper's 900); a stop request may wait "
-                              "for one walk (engine.stop.CHUNK_STEPS)"),
-    "dqn:steps": Size(1, 100_000_000, "environment steps per seed (the paper's 1e5..2e5)"),
-    "arena": Size(2, 1024, "cells a side: the largest MovingAI benchmark maps are 1024"),
-    "trials": Size(1, 1_000_000, "(start, goal) pairs"),
-    "max_steps": Size(1, 100_000, "actions per plan (100 for the 30 x 30 arena); a stop "
-                                  "request may wait for one plan"),
-    "max_actions": Size(1, 100_000, "actions per drive; a stop request may wait for one"),
-    "obstacles": Size(0, 1024 * 1024, "at most every cell of the largest arena"),
-    "devices": Size(2, 10_000_000, "devices per point of a characterization"),
-    "workers": Size(1, 1024, "worker processes"),
-    "repeats": Size(1, 10_000, "timed repeats"),
-    "goals": Size(1, 100_000, "goals driven to"),
-    "model_index": Size(0, 100_000, "an index into the saved models"),
-    "eval_every": Size(1, 100_000_000, "training steps between curve points"),
-    "drift_time": Size(0.0, MAX_IDLE_S, "seconds idle: up to 100 years, beyond any "
-                                        "device's measured drift"),
-}
-"""The count, size and seed options' ranges, by option name (``dest``; ``command:dest``
-for a command whose option of that name counts something else)."""
 
 
 def limit_options(parser: argparse.ArgumentParser, command: str = "") -> None:
@@ -140,8 +101,28 @@ def positive_float(text: str) -> float:
 _ESTIMATE: list[str] = []
 
 
+OUTPUTS = ("out", "plot", "chips_out", "results", "models")
+"""The options that name a file or folder a command writes (by ``dest``)."""
+
+
+def distinct_outputs(args: argparse.Namespace) -> None:
+    """Refuse two output options naming one path (``--out x.png --plot x.png`` would write
+    one over the other): InputError naming both."""
+    seen: dict[str, str] = {}
+    for dest in OUTPUTS:
+        value = getattr(args, dest, None)
+        if value is None:
+            continue
+        where = os.path.normpath(os.path.abspath(value))
+        flag = "--" + dest.replace("_", "-")
+        if where in seen:
+            raise InputError(f"{flag} and {seen[where]} both name {str(value)!r} (allowed: "
+                             "a path of its own for each output)")
+        seen[where] = flag
+
+
 def hold_estimate(line: str | None) -> None:
-    """Keep the run's estimate line (``engine.limits.check``) until its work starts, so
+    """Keep the run's estimate line (:func:`cml_edge.cli.limits.check`) until its work starts, so
     that input refused by the command itself is the only line it prints."""
     _ESTIMATE[:] = [] if line is None else [line]
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import io
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,11 @@ import numpy as np
 from cml_edge.core.finite import dumps
 from cml_edge.core.model_file import MATRICES, load_model
 from cml_edge.errors import InputError
-from cml_edge.io.files import atomic_write, atomic_write_text, writable_folder
+from cml_edge.io.files import (
+    atomic_folder,
+    own_folder,
+    writable_folder,
+)
 
 FORMATS = ("lava",)
 
@@ -50,20 +55,20 @@ def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.loihi2.array import Loihi2Array, lava_description
 
     out = writable_folder(args.out, "--out")
+    own_folder(out, {f"{name}.{ext}" for name in MATRICES for ext in ("npz", "json")} |
+               {"lava.json"}, "--out")
     cml, _ = load_model(args.model)
     kinds = sorted({arr.name for arr in cml.arrays})
     if kinds != [Loihi2Array.name]:
         raise InputError(f"{args.model!r} holds {', '.join(kinds)} arrays (backend "
                          f"{cml.backend}); --format lava exports loihi2 models only (allowed: "
                          "a model trained with --backend loihi2)")
-    files, described = [], []
+    members: dict[str, bytes] = {}
+    described = []
     for name, arr in zip(MATRICES, cml.arrays):
         values = arr.to_lava()
-        data = _npz_bytes(values)
-        atomic_write(out / f"{name}.npz", lambda f, data=data: f.write(data))
-        description = lava_description(arr, name)
-        atomic_write_text(out / f"{name}.json", dumps(description, indent=1))
-        files += [str(out / f"{name}.npz"), str(out / f"{name}.json")]
+        members[f"{name}.npz"] = _npz_bytes(values)
+        members[f"{name}.json"] = dumps(lava_description(arr, name), indent=1).encode()
         described.append({k: values[k] for k in ("weight_exp", "num_weight_bits", "sign_mode",
                                                  "num_message_bits", "scale_exp",
                                                  "lsb_truncated")} | {"matrix": name})
@@ -71,7 +76,12 @@ def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
              "matrices": described,
              "note": "one Dense per matrix (NAME.json says how); planning also reads W_v^T, "
                      "a second Dense of W_v's weights transposed"}
-    atomic_write_text(out / "lava.json", dumps(index, indent=1))
-    files.append(str(out / "lava.json"))
-    return {"model": str(args.model), "format": "lava", "out": str(out), "files": files,
-            "matrices": described}
+    members["lava.json"] = dumps(index, indent=1).encode()
+
+    def write(folder: Path) -> None:
+        for member, data in members.items():
+            (folder / member).write_bytes(data)
+
+    atomic_folder(out, write)  # all or nothing: a failure leaves --out as it was
+    return {"model": str(args.model), "format": "lava", "out": str(out),
+            "files": [str(out / member) for member in members], "matrices": described}

@@ -12,6 +12,7 @@ import numpy as np
 
 from cml_edge import __version__
 from cml_edge.backends import BACKENDS, beyond_reference
+from cml_edge.cli import limits
 from cml_edge.cli.args import (
     Progress,
     add_backend,
@@ -20,6 +21,7 @@ from cml_edge.cli.args import (
     backend_options,
     chips_options,
     command_line,
+    coordinate,
     finite_float,
     nonneg_int,
     positive_int,
@@ -116,6 +118,8 @@ def _load_map_args(args: argparse.Namespace):
     pairs = None
     if getattr(args, "scen", None):
         pairs = scenario_pairs(grid, load_scen(args.scen), args.scen)
+    limits.recheck(args, arena=grid.side, **({} if pairs is None else
+                                             {"trials": len(pairs.goals)}))
     return grid, pairs
 
 
@@ -154,8 +158,8 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
     p.add_argument("model", help="model file (.npz)")
-    p.add_argument("--start", type=int, nargs=2, metavar=("X", "Y"), required=True)
-    p.add_argument("--goal", type=int, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--start", type=coordinate, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--goal", type=coordinate, nargs=2, metavar=("X", "Y"), required=True)
     p.add_argument("--arena", type=arena_size, default=None,
                    help="arena side (default: the training arena)")
     p.add_argument("--obstacles", type=nonneg_int, default=0, help="point obstacles (0)")
@@ -244,6 +248,9 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     with stage("load"):
         cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    twin = {k: record[k] for k in ("walks", "steps") if k in record}  # its training
+    limits.recheck(args, arena=arena.size, trials=len(scen_pairs.goals) if scen_pairs
+                   else args.trials, **twin)
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
@@ -287,6 +294,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
                          f"the arena)")
     cml, record = load_model(args.model)
     arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    limits.recheck(args, arena=arena.size)
     for name, pos in (("start", args.start), ("goal", args.goal)):
         if not arena.contains(pos):
             raise InputError(f"--{name} {pos[0]} {pos[1]} is off the {arena.size} x "

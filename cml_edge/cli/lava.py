@@ -36,8 +36,10 @@ def add_parsers(sub) -> None:
 
 def cmd_verify(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.loihi2.conformance import verify
+    from cml_edge.core.model_file import load_model
 
     for flag, value in (("--epochs", args.epochs), ("--reads", args.reads)):
         if value > MAX_COUNT:
             raise InputError(f"{flag} {value} is beyond {MAX_COUNT} (allowed: 1..{MAX_COUNT})")
-    return verify(args.model, epochs=args.epochs, reads=args.reads, seed=args.seed)
+    cml, _ = load_model(args.model)
+    return verify(cml, args.model, epochs=args.epochs, reads=args.reads, seed=args.seed)

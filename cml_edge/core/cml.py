@@ -42,6 +42,7 @@ from cml_edge.core.records import Record
 from cml_edge.core.step import norms_and_gram, prepare, scores
 from cml_edge.errors import InputError
 from cml_edge.protocol import STREAM_INIT
+from cml_edge.sizes import checked_float
 
 UTILITIES = ("normalized", "raw")
 
@@ -76,8 +77,7 @@ class CMLConfig(Record):
                 raise InputError(f"{name} {v!r} is not a finite number >= 0")
         if not np.isfinite(self.obs_origin):
             raise InputError(f"obs_origin {self.obs_origin!r} is not finite")
-        if not np.isfinite(self.obs_scale) or self.obs_scale <= 0:
-            raise InputError(f"obs_scale {self.obs_scale!r} is not a finite number > 0")
+        checked_float("obs_scale", self.obs_scale, "obs_scale")
         if self.utility not in UTILITIES:
             raise InputError(f"unknown utility {self.utility!r}; allowed: {', '.join(UTILITIES)}")
 

@@ -10,7 +10,6 @@ what is wrong. Files are written atomically (:func:`cml_edge.io.files.atomic_wri
 from __future__ import annotations
 
 import json
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +19,8 @@ from cml_edge.backends import array_from_state_dict
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.errors import InputError, PluginError
 from cml_edge.io.files import atomic_write
+from cml_edge.io.reading import MiB, npz_members
+from cml_edge.sizes import checked
 
 FORMAT = "cml-edge-model"
 FORMAT_VERSION = 1
@@ -52,29 +53,29 @@ def cml_from_arrays(data: dict[str, np.ndarray], config: CMLConfig, backend: str
     return cml
 
 
+MAX_BYTES = 256 * MiB
+"""The largest model file read (and the most its arrays may declare): a CML on the paper's
+sizes is a few MB on any device, a robot model of ten seeds a few tens."""
+
+
 def read_npz(path: str | Path, fmt: str, version: int, error: type[InputError],
              foreign: dict[str, str] | None = None) -> dict[str, np.ndarray]:
-    """The arrays of the ``.npz`` file ``path`` after checking that it exists, reads, and
-    carries format ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign``
-    gives for a known other format."""
+    """The arrays of the ``.npz`` file ``path`` after checking that it is a regular file of
+    at most :data:`MAX_BYTES` (its arrays' declared sizes too), reads, and carries format
+    ``fmt`` at ``version``; ``error`` otherwise, with the hint ``foreign`` gives for a known
+    other format."""
     name = str(path)
-    if Path(path).is_dir():
-        raise error(f"model file {name!r} is a folder, not a file")
-    if not Path(path).is_file():
-        raise error(f"model file {name!r} does not exist")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise error(f"{name!r} is not a readable .npz model file ({exc})") from None
+    data = npz_members(path, "model file", MAX_BYTES, error)
     found = str(data.get("format", ""))
     if found != fmt:
         hint = (foreign or {}).get(found, "")
         raise error(f"{name!r} is not a {fmt.replace('-model', '')} model (no format "
                     f"{fmt!r}){hint}")
     stored = data.get("format_version")
-    if stored is None or int(stored) != version:
-        raise error(f"{name!r} has {fmt} format version {stored}, this cml-edge reads "
+    if stored is None or stored.shape != () or stored.dtype.kind not in "iu" or \
+            int(stored) != version:
+        shown = None if stored is None else (stored.tolist() if stored.size < 8 else "an array")
+        raise error(f"{name!r} has {fmt} format version {shown!r}, this cml-edge reads "
                     f"version {version}")
     return data
 
@@ -97,9 +98,31 @@ def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
                     {"cml-edge-robot-model": " (a robot model: use cml-edge robot evaluate)"})
     try:
         meta = json.loads(str(data["meta"]))
+        if not isinstance(meta, dict):
+            raise TypeError(f"its record is a {type(meta).__name__}, not an object")
+        training = _training(meta.get("training", {}))
         cml = cml_from_arrays(data, CMLConfig.from_dict(meta["config"]), meta["backend"])
     except PluginError as exc:  # a device of a plugin that is not loaded
         raise ModelFileError(f"{str(path)!r}: {exc}") from None
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
         raise ModelFileError(f"{str(path)!r} is a corrupted model file: {exc}") from None
-    return cml, meta.get("training", {})
+    return cml, training
+
+
+TRAINING_SIZES = ("arena", "walks", "steps", "seed")
+"""The training record's numbers, each held to the range its option has (:mod:`cml_edge.sizes`):
+a model's record is what ``evaluate`` retrains its float64 twin with."""
+
+
+def _training(record: Any) -> dict[str, Any]:
+    """The training record of a model file, its numbers in their options' ranges
+    (TypeError or InputError naming the field otherwise)."""
+    if not isinstance(record, dict):
+        raise TypeError(f"its training record is a {type(record).__name__}, not an object")
+    for key in TRAINING_SIZES:
+        if key in record:
+            checked(key, record[key], f"its training record's {key}")
+    for key in ("explore", "schedule"):
+        if key in record and not isinstance(record[key], str):
+            raise TypeError(f"its training record's {key} {record[key]!r} is not a name")
+    return record

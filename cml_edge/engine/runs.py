@@ -30,9 +30,12 @@ from cml_edge import __version__
 from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
 from cml_edge.io.files import atomic_write_text
+from cml_edge.io.reading import MiB, read_text, strict_json
 
 RUN_FILE = "run.json"
 RUN_FORMAT = "cml-edge-run"
+RUN_BYTES = 16 * MiB
+"""The largest run file read: a run's settings (a report's are ~20 kB)."""
 
 
 def plain(value: Any) -> Any:
@@ -81,12 +84,14 @@ def open_run(out: str | Path, settings: dict[str, Any], tasks: Sequence[Any],
         for old in tasks_dir.glob("*.json") if tasks_dir.is_dir() else ():
             old.unlink()
         path.unlink(missing_ok=True)
-    if path.exists():
+    if path.exists() or path.is_symlink():
+        text = read_text(path, "run file", RUN_BYTES)
         try:
-            doc = json.loads(path.read_text())
-            if doc.get("format") != RUN_FORMAT or not isinstance(doc.get("settings"), dict):
+            doc = strict_json(text)
+            if not isinstance(doc, dict) or doc.get("format") != RUN_FORMAT or \
+                    not isinstance(doc.get("settings"), dict):
                 raise ValueError
-        except (OSError, ValueError):
+        except ValueError:
             raise InputError(f"{str(path)!r} is not a cml-edge run file (give --restart to "
                              f"start the run over)") from None
         diff = first_difference(doc["settings"], settings)

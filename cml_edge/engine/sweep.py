@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import json
 import logging
 import os
 import re
@@ -52,7 +51,8 @@ from cml_edge.engine import timings
 from cml_edge.engine.runs import checksum, open_run, plain
 from cml_edge.engine.stop import signals_held, worker_init
 from cml_edge.errors import InputError, RunError
-from cml_edge.io.files import atomic_write_text
+from cml_edge.io.files import atomic_write_text, folder_path
+from cml_edge.io.reading import MiB, read_text, strict_json
 
 TASK_FORMAT = "cml-edge-sweep-task"
 CONNECT_TIMEOUT = "10s"  # to reach a Dask scheduler
@@ -130,15 +130,25 @@ def load_done(out: str | Path, task: Task,
     """The stored result of ``task`` if it is complete, for the same call and its checksum
     matches (:mod:`cml_edge.engine.runs`; ``settings``: the run's), else None."""
     path = task_path(out, task.key)
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, ValueError):
+    if not path.exists() and not path.is_symlink():
+        return None
+    try:  # strict JSON: a NaN or an infinity is no result (it is computed again)
+        doc = strict_json(read_text(path, "task file", TASK_BYTES))
+    except ValueError as exc:
+        if isinstance(exc, InputError):  # a special file, a loop, too large: refused
+            raise
         return None
     if not isinstance(doc, dict) or doc.get("format") != TASK_FORMAT \
             or doc.get("fn") != task.fn or doc.get("params") != plain(task.params) \
+            or not isinstance(doc.get("result"), dict) \
             or doc.get("checksum") != checksum(doc, plain(settings)):
         return None
     return doc
+
+
+TASK_BYTES = 256 * MiB
+"""The largest task file read: a scenario's task holds its models' curves and counters
+(~100 kB; a chip run's ten seeds, a few MB)."""
 
 
 def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None,
@@ -157,6 +167,11 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
     keys = [t.key for t in tasks]
     if len(set(keys)) != len(keys):
         raise InputError("task keys are not unique")
+    folder_path(Path(out) / "tasks", "the run folder's tasks")  # before any work
+    for task in tasks:
+        if task_path(out, task.key).is_dir():
+            raise InputError(f"task file {str(task_path(out, task.key))!r} is a folder "
+                             "(allowed: a file cml-edge writes)")
     own = pool is None
     workers_ = Workers(workers, scheduler) if pool is None else pool
     if settings is not None:

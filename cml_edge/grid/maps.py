@@ -46,6 +46,8 @@ import numpy as np
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import Pairs, geodesic_distances
+from cml_edge.io.reading import MiB, read_text
+from cml_edge.sizes import SIZES
 
 FREE_CHARS = frozenset(".GS")
 BLOCKED_CHARS = frozenset("@OTW")
@@ -160,17 +162,16 @@ def parse_map(text: str, name: str = "<map>") -> GridMap:
     return GridMap(name, blocked)
 
 
+MAP_BYTES = 4 * MiB
+"""The largest ``.map`` file read: a map of the largest side, 1,024, is ~1 MiB."""
+SCEN_BYTES = 128 * MiB
+"""The largest ``.scen`` file read: its documented 1,000,000 problems at ~60 bytes each."""
+
+
 def load_map(path: str | Path) -> GridMap:
-    """Read and parse a ``.map`` file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="ascii")
-    except FileNotFoundError:
-        raise MapFormatError(f"map file {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MapFormatError(f"map file {str(path)!r} is not a readable text file "
-                             f"({type(exc).__name__})") from None
-    return parse_map(text, path.name)
+    """Read (at most :data:`MAP_BYTES`, a regular file) and parse a ``.map`` file."""
+    text = read_text(path, "map file", MAP_BYTES, "ascii", MapFormatError)
+    return parse_map(text, Path(path).name)
 
 
 def format_map(blocked_yx: np.ndarray) -> str:
@@ -187,9 +188,13 @@ def parse_scen(text: str, name: str = "<scen>") -> list[Scenario]:
         first = lines[0].strip() if lines else ""
         raise MapFormatError(f"{name} line 1: wrong header {first!r}; expected 'version 1'")
     out = []
+    most = SIZES["trials"]
     for i, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
+        if len(out) == most.hi:
+            raise MapFormatError(f"{name}: more than {most.hi:,.0f} problems (a scenario file's "
+                                 f"problems are its trials: {most.why})")
         parts = line.split("\t") if "\t" in line else line.split()
         parts = [p.strip() for p in parts]
         if len(parts) != 9:
@@ -210,16 +215,9 @@ def parse_scen(text: str, name: str = "<scen>") -> list[Scenario]:
 
 
 def load_scen(path: str | Path) -> list[Scenario]:
-    """Read and parse a ``.scen`` file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="ascii")
-    except FileNotFoundError:
-        raise MapFormatError(f"scenario file {str(path)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MapFormatError(f"scenario file {str(path)!r} is not a readable text file "
-                             f"({type(exc).__name__})") from None
-    return parse_scen(text, path.name)
+    """Read (at most :data:`SCEN_BYTES`, a regular file) and parse a ``.scen`` file."""
+    text = read_text(path, "scenario file", SCEN_BYTES, "ascii", MapFormatError)
+    return parse_scen(text, Path(path).name)
 
 
 def format_scen(map_name: str, grid: GridMap, pairs: list[tuple[tuple[int, int],
@@ -237,7 +235,7 @@ def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>
     """The scenarios as evaluation :class:`~cml_edge.grid.metrics.Pairs` on ``grid.arena()``.
 
     Each problem must fit the map (its width and height agree, start and goal are free
-    cells); BFS geodesics use this package's moves.
+    cells, and differ); BFS geodesics use this package's moves.
     """
     arena = grid.arena()
     starts = np.zeros((len(scenarios), 2), np.int64)
@@ -253,6 +251,9 @@ def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>
             if not arena.is_free(p):
                 raise MapFormatError(f"{name}: problem {i + 1}: {what} {p[0]} {p[1]} is on a "
                                      f"blocked cell")
+        if sc.start == sc.goal:  # no path to measure: its overhead would be 0 / 0
+            raise MapFormatError(f"{name}: problem {i + 1} starts at its goal "
+                                 f"{sc.goal[0]} {sc.goal[1]}")
         starts[i], goals[i] = sc.start, sc.goal
     cheb = np.abs(starts - goals).max(axis=1)
     return Pairs(starts, goals, cheb, geodesic_distances(arena, starts, goals))

@@ -12,6 +12,7 @@ work is done.
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -31,11 +32,18 @@ def writable_file(path: str | Path, what: str = "output file") -> Path:
 def writable_folder(path: str | Path, what: str = "output folder") -> Path:
     """``path`` as a folder cml-edge may write into (made when missing); InputError naming
     ``what`` when it is a file or lies under one."""
+    path = folder_path(path, what)
+    _probe(path, path, what)
+    return path
+
+
+def folder_path(path: str | Path, what: str = "output folder") -> Path:
+    """:func:`writable_folder` without the probe, so nothing in the folder is touched (a
+    run folder's ``tasks``, checked before its settings are)."""
     path = Path(path)
-    if path.exists() and not path.is_dir():
+    if _exists(path, path, what) and not path.is_dir():
         raise InputError(f"{what} {str(path)!r} is a file (allowed: a folder)")
     _under_folders(path, what)
-    _probe(path, path, what)
     return path
 
 
@@ -50,7 +58,7 @@ def _file(path: str | Path, what: str) -> Path:
 def _probe(folder: Path, path: Path, what: str) -> None:
     """Create and remove a file in ``folder``, or in its nearest existing parent (where
     the missing folders would be made); InputError naming ``what`` when that fails."""
-    while not folder.exists() and folder != folder.parent:
+    while not _exists(folder, path, what) and folder != folder.parent:
         folder = folder.parent
     try:
         fd, tmp = tempfile.mkstemp(prefix=".cml-edge-check.", dir=folder)
@@ -65,9 +73,26 @@ def _reason(exc: OSError) -> str:
     return (exc.strerror or str(exc)).lower()
 
 
+def _exists(p: Path, path: Path, what: str) -> bool:
+    """Whether ``p`` (``path`` or a folder on its way) exists; InputError naming ``what``
+    when it is a symbolic link that leads nowhere or round in a loop, where a write
+    would fail after the work (``Path.exists`` says False to both)."""
+    try:
+        os.stat(p)
+        return True
+    except (FileNotFoundError, NotADirectoryError):  # missing, or under a file
+        if os.path.islink(p):
+            raise InputError(f"{what} {str(path)!r}: {str(p)!r} is a symbolic link to "
+                             f"{os.readlink(p)!r}, which does not exist") from None
+        return False
+    except OSError as exc:  # a loop of links, a folder that may not be searched
+        raise InputError(f"{what} {str(path)!r}: {str(p)!r} cannot be reached "
+                         f"({_reason(exc)})") from None
+
+
 def _under_folders(path: Path, what: str) -> None:
     for parent in path.parents:
-        if parent.exists():
+        if _exists(parent, path, what):
             if not parent.is_dir():
                 raise InputError(f"{what} {str(path)!r} lies under {str(parent)!r}, which "
                                  f"is a file, not a folder")
@@ -96,6 +121,47 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> None:
             raise RunError(f"cannot write {str(path)!r} ({_reason(exc)}); nothing was "
                            f"written there") from None
         raise
+
+
+def own_folder(path: Path, names: set[str], what: str) -> None:
+    """Refuse (InputError, before any work) a folder ``path`` that holds anything but
+    ``names``, the files a command writes there: :func:`atomic_folder` replaces it whole."""
+    if path.is_dir():
+        other = sorted(p.name for p in path.iterdir() if p.name not in names)
+        if other:
+            shown = ", ".join(other[:3]) + (", ..." if len(other) > 3 else "")
+            raise InputError(f"{what} {str(path)!r} holds other files ({shown}); it is "
+                             "replaced whole (allowed: a new folder, or one this command "
+                             "wrote)")
+
+
+def atomic_folder(path: str | Path, write: Callable[[Path], None]) -> Path:
+    """Call ``write(folder)`` on a temporary folder beside ``path``, then put it in place
+    whole, replacing a folder already there: a failure (RunError, one line) or a stop
+    leaves ``path`` as it was and no temporary folder behind."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    except OSError as exc:
+        raise RunError(f"cannot write {str(path)!r} ({_reason(exc)})") from None
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; give what mkdir would
+        write(tmp)
+        if path.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old.", dir=path.parent))
+            os.replace(path, old / path.name)
+            os.replace(tmp, path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, path)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise RunError(f"cannot write {str(path)!r} ({_reason(exc)}); nothing was "
+                           f"written there") from None
+        raise
+    return path
 
 
 def _umask() -> int:

@@ -46,6 +46,7 @@ from cml_edge.backends.fields import option
 from cml_edge.errors import InputError
 from cml_edge.kit.device import Device
 from cml_edge.kit.draws import normal, uniform
+from cml_edge.sizes import ascii_number
 
 HEADER = ("device", "cycle", "direction", "pulse", "conductance")
 MAX_BYTES = 64 * 2**20
@@ -86,11 +87,11 @@ def read_measurements(path: str | Path) -> Measurements:
                 raise InputError(f"{name!r} line {line}: direction {direction!r} (allowed: "
                                  "up, down)")
             try:
-                k, value = int(pulse), float(g)
+                k, value = ascii_number(pulse, int), ascii_number(g, float)
             except ValueError:
                 raise InputError(f"{name!r} line {line}: pulse {pulse!r} or conductance "
                                  f"{g!r} is not a number") from None
-            if not pulse.isascii() or not math.isfinite(value):
+            if not math.isfinite(value):
                 raise InputError(f"{name!r} line {line}: conductance {g!r} is not a finite "
                                  "number")
             rows.setdefault((device, cycle, direction), []).append((k, value))

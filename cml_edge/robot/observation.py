@@ -54,6 +54,7 @@ from numba import njit
 from cml_edge.core.cml import CMLConfig
 from cml_edge.core.records import Record
 from cml_edge.errors import InputError
+from cml_edge.sizes import checked_float
 
 OBSERVATIONS = ("xy", "heading", "heading-world")
 XY, HEADING, HEADING_WORLD = 0, 1, 2
@@ -91,10 +92,8 @@ class RobotCMLSettings(Record):
         if self.goal_heading not in GOAL_HEADINGS:
             raise InputError(f"unknown goal heading {self.goal_heading!r}; allowed: "
                              f"{', '.join(GOAL_HEADINGS)}")
-        for name in ("heading_scale", "scale"):
-            v = getattr(self, name)
-            if not math.isfinite(v) or v <= 0:
-                raise InputError(f"{name.replace('_', '-')} {v!r} is not a finite number > 0")
+        checked_float("heading_scale", self.heading_scale, "heading-scale")
+        checked_float("obs_scale", self.scale, "scale")
         if not math.isfinite(self.origin):
             raise InputError(f"origin {self.origin!r} is not finite")
 

@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 from cml_edge.backends import DEVICES
 from cml_edge.backends.fields import field_range, range_table, scalar_kind
+from cml_edge.cli import limits
 from cml_edge.core.cml import CML, CMLConfig
-from cml_edge.engine import limits
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import draw_pairs

@@ -460,6 +460,22 @@ CASES: list[tuple[str, str]] = [
     ("export-out-file", "export {l} --format lava --out {f}"),
     ("export-out-under-file", "export {l} --format lava --out {f}/x"),
     ("export-out-proc", "export {l} --format lava --out /proc/cml-edge-x"),
+    # numbers are ASCII numbers (Python's int() and float() read other scripts' digits)
+    ("emulate-seeds-arabic-indic", "emulate --seeds \u0663"),
+    ("train-arena-fullwidth", "train --arena \uff16 --out {t}/m.npz"),
+    ("emulate-set-devanagari", "emulate --backend int8 --set acc_bits=\u0968\u0966"),
+    ("navigate-start-arabic-indic", "navigate {m} --start \u0661 0 --goal 3 3"),
+    ("robot-train-heading-scale-huge", "robot train --heading-scale 1e300 --out {t}/r.npz"),
+    # options that do nothing together
+    ("emulate-clip-init-alone", "emulate --backend int8 --clip-init"),
+    ("emulate-headroom-with-weight-exp", "emulate --backend int8 --weight-exp -10 "
+                                         "--headroom 2"),
+    # two outputs on one path
+    ("characterize-out-equals-plot", "device characterize --out {t}/c.png --plot {t}/c.png"),
+    ("emulate-out-equals-chips-out", "emulate --chips 2 --out {t}/r --chips-out {t}/./r"),
+    # the size check counts what a command does: goals x actions
+    ("robot-navigate-goals-x-actions", "robot navigate {r} --goals 100000 "
+                                       "--max-actions 100000"),
 ]
 
 SUBPROCESS = {cid for cid, line in CASES if "--scheduler" in line}

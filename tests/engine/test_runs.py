@@ -147,3 +147,17 @@ def test_a_breakpoint_folder_of_other_settings_is_refused_unless_restarted(cli, 
     assert code == 2 and last.startswith("cml-edge: error: ") and "--restart" in last, err
     code, again, err = cli(*bp, "--act-bits", 6, "--restart")
     assert code == 0 and json.loads(again)["knob"] == "bits", err
+
+
+@pytest.mark.parametrize("blocked", ["tasks", "tasks/t1.json"])
+def test_a_run_folder_that_cannot_take_its_task_files_is_refused_before_any_task(
+        tmp_path, blocked):
+    """``tasks`` a file, or a task's file a folder: refused before the first task runs and
+    before the settings file is written (so nothing is left behind)."""
+    if blocked == "tasks":
+        (tmp_path / "tasks").write_text("")
+    else:
+        (tmp_path / blocked).mkdir(parents=True)
+    with pytest.raises(InputError, match="is a f"):
+        sweep(tmp_path)
+    assert calls == [] and not (tmp_path / RUN_FILE).exists()

@@ -69,7 +69,7 @@ def test_missing_and_binary_files(tmp_path):
         load_map(tmp_path / "none.map")
     junk = tmp_path / "junk.map"
     junk.write_bytes(b"\xff\xfe\x00binary")
-    with pytest.raises(MapFormatError, match="not a readable text file"):
+    with pytest.raises(MapFormatError, match="map file .*junk.map' is not ascii text"):
         load_map(junk)
 
 

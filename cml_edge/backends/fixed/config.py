@@ -119,6 +119,13 @@ class FixedConfig:
             if not isinstance(value, (bool, np.bool_)):
                 raise InputError(f"{name} {value!r} is not a boolean")
             object.__setattr__(self, name, bool(value))
+        if self.weight_exp is None and self.clip_init:
+            raise InputError("clip_init (--clip-init) needs weight_exp (--weight-exp): the "
+                             "exponent chosen from the initial weights holds them all")
+        if self.weight_exp is not None and self.headroom:
+            raise InputError(f"headroom (--headroom) {self.headroom} does nothing with "
+                             "weight_exp (--weight-exp), which fixes the exponent: give one "
+                             "of them")
 
 
 def _exponents(weight_exp: Any) -> int | tuple[int, ...] | None:

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 import cml_edge
+from cml_edge.backends.fields import MATRICES
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2.array import Loihi2Array
 from cml_edge.backends.loihi2.lava import SIGN_MODES
@@ -201,11 +202,10 @@ def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str) -> d
             "weights_equal": same_weights}
 
 
-def verify(model: str, epochs: int = 20, reads: int = 16, seed: int = 0) -> dict[str, Any]:
-    """Run ``model`` (a saved loihi2 model) in Lava and compare (module docstring)."""
-    from cml_edge.core.model_file import MATRICES, load_model
-
-    cml, _ = load_model(model)
+def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
+           seed: int = 0) -> dict[str, Any]:
+    """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``) in Lava and
+    compare (module docstring)."""
     if any(not isinstance(arr, Loihi2Array) for arr in cml.arrays):
         raise InputError(f"{model!r} is a {cml.backend} model; lava verify runs loihi2 models "
                          "(allowed: a model trained with --backend loihi2)")

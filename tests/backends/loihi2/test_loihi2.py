@@ -662,6 +662,16 @@ def test_export_writes_lava_dense_parameters(cli, tmp_path):
     assert "transposed_read" in json.loads((tmp_path / "lava" / "W_v.json").read_text())
     index = json.loads((tmp_path / "lava" / "lava.json").read_text())
     assert [m["matrix"] for m in index["matrices"]] == ["W_q", "W_k", "W_v"]
+    # written whole: again over its own folder; a folder of other files is refused first
+    (tmp_path / "lava" / "W_k.json").write_text("stale")
+    assert cli("export", model, "--format", "lava", "--out", tmp_path / "lava")[0] == 0
+    assert json.loads((tmp_path / "lava" / "W_k.json").read_text())["dense"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lava", "m.npz"]  # no temporary
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("mine")
+    code, _, err = cli("export", model, "--format", "lava", "--out", tmp_path / "mine")
+    assert code == 2 and "holds other files (notes.txt)" in err
+    assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
 
 
 def test_export_refuses_other_models_and_formats(cli, tmp_path):

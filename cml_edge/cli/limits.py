@@ -1,10 +1,15 @@
 """What a run will cost, from its sizes, before any work: memory and time.
 
 :func:`estimate` reads a command's sizes (arena cells, seeds, chips, walks x steps,
-trials x the step budget, devices) and prices them with per-unit costs measured on this
-code; :func:`check` refuses a run whose memory would exceed the machine's (InputError:
-one line naming the option that dominates and the estimate) and returns, for a large but
-feasible run, the line to print on stderr before going on.
+trials x the step budget, goals x the action budget, devices) and prices them with
+per-unit costs measured on this code; :func:`check` refuses a run whose memory would
+exceed the machine's (InputError: one line naming the option that dominates and the
+estimate) and returns, for a large but feasible run, the line to print on stderr before
+going on. The command line checks once
+the options are parsed (:func:`cml_edge.cli.main`), and a command that reads a file whose
+contents set a size (a model's training record: its arena, walks and steps; a map's side;
+a scenario file's problems) checks again with those sizes (:func:`recheck`) once it has
+read them, before any work.
 
 How the costs were measured (Python 3.11, the 2-core development machine, kernels
 compiled), each a peak of ``tracemalloc`` over a run of N units divided by N, or a
@@ -45,8 +50,10 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any
 
+from cml_edge.cli.args import hold_estimate
 from cml_edge.errors import InputError
 
 TASK_BYTES = 8e3
@@ -117,6 +124,8 @@ def estimate(args: Any) -> Estimate:
     and ``devices`` it has (a missing size counts 1, or its default; a scenario or sweep
     trains the paper's 100 walks x 900 steps a model)."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
+    if getattr(args, "robot_command", None) == "navigate":  # goals one after another
+        args = SimpleNamespace(**{**vars(args), "trials": _get(args, "goals")})
     models = seeds * chips
     step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(os.cpu_count() or 1)
     trials = _get(args, "trials", 0)
@@ -173,12 +182,13 @@ def _scenario_sizes(args: Any) -> tuple[float, float, float, float, str]:
     return 2.0 * len(runs) * b.walks, float(b.steps), float(plan_steps), float(repeat), name
 
 
-def check(args: Any, memory: int | None = None) -> str | None:
+def check(args: Any, memory: int | None = None, **read: float) -> str | None:
     """Refuse ``args`` when its :func:`estimate` exceeds the machine's memory (InputError
     naming the option that dominates, the estimate and the memory there is); else the
     line to print on stderr for a run estimated to take more than :data:`LOUD_S`
-    (None for a small run)."""
-    est = estimate(args)
+    (None for a small run). ``read``: sizes a command has read from its files, in place
+    of the options' (``arena``, ``walks``, ``steps``, ``trials``)."""
+    est = estimate(SimpleNamespace(**{**vars(args), **read}) if read else args)
     memory = total_memory() if memory is None else memory
     if est.memory > memory and est.terms:
         option, share = est.terms[0]
@@ -189,4 +199,12 @@ def check(args: Any, memory: int | None = None) -> str | None:
     return None
 
 
-__all__ = ["Estimate", "check", "estimate", "total_memory"]
+def recheck(args: Any, **read: float) -> None:
+    """:func:`check` again with the sizes a command has read from its files (a model's
+    record, a map, a scenario file), before its work: refuses what will not fit, and
+    holds the estimate line to say when the work starts
+    (:func:`~cml_edge.cli.args.say_estimate`)."""
+    hold_estimate(check(args, **read))
+
+
+__all__ = ["Estimate", "check", "estimate", "recheck", "total_memory"]
