@@ -1,6 +1,7 @@
 """Rerun the docs' seeded figures and report every one that no longer matches its command.
 
     python docs/check_figures.py [PAGE ...] [--list] [--rerun] [--grep TEXT]
+                                 [--estimate] [--quick]
 
 A seeded figure carries a marker, an HTML comment right above its table or sentence:
 
@@ -35,12 +36,22 @@ last printed digit) is reported as "matches (other CPU)".
 Prints one line per figure (match, MISMATCH, error, skipped when the command needs an
 optional extra that is not installed, or timing) with the seconds its command took, and
 exits 1 if any figure does not match or its command fails.
+
+``--estimate`` runs nothing: it prints how long each command would take and the total,
+from the commands' sizes (``cml_edge/cli/limits.py``'s estimate, the one ``cml-edge``
+prints before a long run, plus :data:`START_S` for each fresh process): a figure read from
+a committed results file costs nothing unless ``--rerun``; a command whose work that
+estimate does not read (:data:`UNPRICED`: a report, a sweep's experiments, Lava) is
+listed as not priced; the first compile of the kernels (5-10 min, once) is not counted.
+``--quick`` checks the figures read from committed results files (nothing runs) and those
+of the :data:`QUICK_COMMANDS` fastest priced commands, a sample that runs in minutes.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import importlib.util
 import json
 import math
@@ -64,6 +75,14 @@ HEAD = re.compile(r"^(?:\s+rows?\s+(\d+)(?:-(\d+))?)?(?:\s+cols?\s+(\d+)(?:-(\d+
                   re.S)
 NUMBER = re.compile(r"n/a|inf|(?<![\w.])-?\d[\d,]*(?:\.\d+)?(?:[eE][-+]?\d+)?")
 FORMAT = re.compile(r"^[<>=^]?[+\- ]?#?0?\d*[,_]?(?:\.\d+)?[bdeEfFgGn%]?$")
+START_S = 3.0
+"""A fresh ``cml-edge`` process's start: Python, the package and its cached kernels loaded
+(the warm main job took 4.5-5.1 s, of which its estimate prices 2.4: benchmarks/README.md)."""
+UNPRICED = ("report", "sweep", "lava")
+"""The commands whose work :func:`cml_edge.cli.limits.estimate` does not read from their
+options (a whole report, an experiment's grid, Lava's own process): not priced."""
+QUICK_COMMANDS = 5
+"""How many of the fastest priced commands ``--quick`` runs."""
 EXTRAS = {"dqn": ("torch", "stable_baselines3", "gymnasium"), "robot": ("mujoco", "gymnasium"),
           "distributed": ("distributed",)}
 """Optional extras (pyproject.toml) and the modules a command of each needs."""
@@ -376,7 +395,7 @@ def check(figures: list[Figure], rerun: bool = False, timeout: float | None = No
             echo(f"skipped   {'':>8}  {fig.where}  {fig.command}  (extra {missing[0]} is "
                  f"not installed)")
             continue
-        key = f"{fig.command} @ {fig.file}" if fig.file else fig.command
+        key = _key(fig)
         source = f"  @ {fig.file}" if fig.file and not rerun else ""
         if key in cache:
             source += f"  (same output as {first_run[key]})"
@@ -406,6 +425,74 @@ def check(figures: list[Figure], rerun: bool = False, timeout: float | None = No
     return counts["MISMATCH"] + counts["error"]
 
 
+def seconds(fig: Figure, rerun: bool = False) -> float | None:
+    """How long ``fig``'s command would take (module docstring: ``--estimate``); 0 for a
+    figure read from its committed results file (without ``rerun``), None where a part
+    of it is not priced."""
+    if fig.kind == "timing" or (fig.file and not rerun):
+        return 0.0
+    from cml_edge.cli import limits
+
+    total = 0.0
+    for argv in fig.argvs():
+        if argv[0] != "cml-edge" or argv[1] in UNPRICED:
+            return None
+        total += START_S + limits.estimate(_parser().parse_args(argv[1:])).seconds
+    return total
+
+
+@functools.cache
+def _parser() -> argparse.ArgumentParser:
+    from cml_edge.cli import build_parser
+
+    return build_parser()
+
+
+def _key(fig: Figure) -> str:
+    return f"{fig.command} @ {fig.file}" if fig.file else fig.command
+
+
+def estimate(figures: list[Figure], rerun: bool = False, echo=_echo) -> float:
+    """Print each command's estimate once (the figures sharing it run it once) and the
+    total; returns the total seconds of the priced commands."""
+    priced, unpriced, seen = 0.0, [], set()
+    for fig in figures:
+        if fig.kind == "timing" or _key(fig) in seen:
+            continue
+        seen.add(_key(fig))
+        s = seconds(fig, rerun)
+        if s is None:
+            unpriced.append(fig)
+            echo(f"not priced  {fig.where}  {fig.command}")
+        elif s > 0:
+            priced += s
+            echo(f"~{_duration(s):>9}  {fig.where}  {fig.command}")
+    read = sum(1 for f in figures if f.kind == "figure" and f.file and not rerun)
+    echo(f"{len(seen)} commands, ~{_duration(priced)} on {os.cpu_count()} cores for those "
+         f"priced ({read} figures read from committed results files cost nothing"
+         + (f"; {len(unpriced)} commands not priced: "
+            f"{', '.join(sorted({a[1] for f in unpriced for a in f.argvs() if a[1] in UNPRICED}))}"
+            if unpriced else "")
+         + "), plus the kernels' first compile (5-10 min, once)")
+    return priced
+
+
+def _duration(s: float) -> str:
+    return f"{s:.0f} s" if s < 120 else f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.1f} h"
+
+
+def quick(figures: list[Figure]) -> list[Figure]:
+    """The figures read from committed results files and those of the
+    :data:`QUICK_COMMANDS` fastest priced commands (the first on the pages of equals)."""
+    timed = {}
+    for fig in figures:
+        s = seconds(fig)
+        if fig.kind == "figure" and not fig.file and s is not None:
+            timed.setdefault(_key(fig), s)
+    fastest = set(sorted(timed, key=timed.get)[:QUICK_COMMANDS])
+    return [f for f in figures if f.kind == "figure" and (f.file or _key(f) in fastest)]
+
+
 def default_pages() -> list[Path]:
     return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")),
             ROOT / "benchmarks" / "README.md"]
@@ -421,6 +508,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="also rerun the figures read from a committed results file")
     parser.add_argument("--grep", default=None, metavar="TEXT",
                         help="only the figures whose command contains TEXT")
+    parser.add_argument("--estimate", action="store_true",
+                        help="print how long the figures' commands would take, run nothing")
+    parser.add_argument("--quick", action="store_true",
+                        help="only the figures read from committed results files and those "
+                             f"of the {QUICK_COMMANDS} fastest commands")
     parser.add_argument("--timeout", type=float, default=None, metavar="S",
                         help="seconds a command may take (default: no limit)")
     args = parser.parse_args(argv)
@@ -433,6 +525,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.grep:
         figures = [f for f in figures if args.grep in f.command]
+    if args.quick:
+        figures = quick(figures)
+    if args.estimate:
+        estimate(figures, args.rerun)
+        return 0
     if args.list:
         for fig in figures:
             src = f"  @ {fig.file}" if fig.file else ""

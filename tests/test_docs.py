@@ -167,3 +167,26 @@ def test_checker_reports_a_figure_within_the_cross_machine_tolerance(tmp_path):
     proc = subprocess.run([sys.executable, str(CHECKER), str(page)], capture_output=True,
                           text=True)
     assert proc.returncode == 1 and "x gives 0.1234" in proc.stdout
+
+
+def test_estimate_prices_the_commands_and_quick_picks_the_fastest(script):
+    """``--estimate`` runs nothing and prices each command once from the size estimate
+    (a committed results file's figure costs nothing, a report is not priced); ``--quick``
+    keeps the figures read from results files and the QUICK_COMMANDS fastest commands."""
+    checker = script("docs/check_figures.py")
+    figures = [f for page in PAGES for f in checker.parse_page(page)]
+    lines: list[str] = []
+    total = checker.estimate(figures, echo=lines.append)
+    assert total > 0 and " commands, ~" in lines[-1] and "first compile" in lines[-1]
+    assert all(checker.seconds(f) == 0 for f in figures if f.kind == "figure" and f.file)
+    assert sum(1 for line in lines if line.startswith("not priced")) >= 1  # the report's
+    assert checker.estimate(figures, rerun=True, echo=lambda _: None) > total
+    picked = checker.quick(figures)
+    from_files = [f for f in figures if f.kind == "figure" and f.file]
+    run = {checker._key(f) for f in picked if not f.file}
+    assert set(map(id, from_files)) <= set(map(id, picked))
+    assert len(run) == checker.QUICK_COMMANDS
+    slowest_run = max(checker.seconds(f) for f in picked if not f.file)
+    left_out = [checker.seconds(f) for f in figures if f.kind == "figure" and not f.file
+                and checker._key(f) not in run and checker.seconds(f) is not None]
+    assert left_out and min(left_out) >= slowest_run

@@ -42,6 +42,7 @@ from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import dumps
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.core.model_file import load_model, save_model
+from cml_edge.engine import timings
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
@@ -365,9 +366,15 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
-        with stage("write"):
-            atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
+        _write_out(args.out, result)
     return result
+
+
+def _write_out(path: str, result: dict[str, Any]) -> None:
+    """``--out``: the result as ``--json`` prints it, its ``timings`` up to the write."""
+    with stage("write"):
+        atomic_write(path, lambda f: f.write(dumps(
+            {**result, "timings": timings.snapshot()}, indent=1).encode()))
 
 
 def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
@@ -381,7 +388,7 @@ def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:
-        atomic_write(args.out, lambda f: f.write(dumps(result, indent=1).encode()))
+        _write_out(args.out, result)
     return result
 
 

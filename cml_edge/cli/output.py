@@ -10,46 +10,29 @@ and :func:`show_fields`, the view of a command without one of its own.
 
 from __future__ import annotations
 
-import math
+import textwrap
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 from cml_edge.core.fidelity import MATRICES, READ_ROUNDING
+from cml_edge.report.numbers import human
 
 
-# numbers ---------------------------------------------------------------------------------
+# numbers: the report's formatting (cml_edge.report.numbers.human) -------------------------
 def num(v: Any, digits: int = 3) -> str:
-    """A number to ``digits`` significant digits (integers in full, with thousands
-    separators); ``n/a`` for None."""
-    if v is None:
-        return "n/a"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, int):
-        return f"{v:,}"
-    if not isinstance(v, float):
-        return str(v)
-    if not math.isfinite(v) or v == 0:
-        return f"{v:g}"
-    if 1e-3 <= abs(v) < 10 ** digits:
-        return f"{v:.{digits}g}"
-    if 10 ** digits <= abs(v) < 1e6:
-        return f"{v:,.0f}"
-    return f"{v:.{digits - 1}e}"
+    """A number to ``digits`` significant digits (integers below a million in full, with
+    thousands separators; a million and more in words); ``n/a`` for None."""
+    return human(v, digits=digits)
 
 
 def pct(v: float | None) -> str:
-    """A fraction as a percentage, one decimal."""
-    return "n/a" if v is None else f"{100 * v:.1f} %"
+    """A fraction as a percentage, three significant digits (never 100 % unless all)."""
+    return human(v, "%")
 
 
 def secs(v: float | None) -> str:
-    """A duration: seconds below two minutes, else minutes."""
-    if v is None:
-        return "n/a"
-    if v < 120:
-        return f"{num(float(v), 2)} s" if v < 10 else f"{v:.0f} s"
-    return f"{v / 60:.1f} min"
+    """A duration: seconds below two minutes, then minutes, then hours."""
+    return human(v, "s")
 
 
 def spread(stats: dict[str, Any] | None, fmt=num) -> str:
@@ -131,9 +114,40 @@ def beyond_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
     return [(f"not in {beyond['reference']}", "; ".join(beyond["settings"]))]
 
 
-def fidelity_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
+WIDTH = 100
+"""The widest line a view prints."""
+VALUE_AT = 22
+"""Where the values of the protocol's table start (two spaces, the widest label, two)."""
+
+
+def wrap(text: str) -> list[str]:
+    """``text`` in lines that fit beside the labels; a number keeps its unit (``22.7 %``)."""
+    lines = textwrap.wrap(text.replace(" %", "\u00a0%"), WIDTH - VALUE_AT)
+    return [line.replace("\u00a0", " ") for line in lines]
+
+
+def more(text: str) -> list[tuple[str, str]]:
+    """Continuation rows (no label) of ``text``, wrapped to :data:`WIDTH`."""
+    return [("", line) for line in wrap(text)]
+
+
+def _beside(ctx: dict[str, Any] | None, key: str, fmt) -> list[tuple[str, str]]:
+    """The reference devices' figure ``key`` on the same protocol, one line."""
+    if not ctx or not ctx["rows"]:
+        return []
+    seeds = f"seeds {ctx['seeds'][0]}-{ctx['seeds'][-1]}"
+    figures = ", ".join(f"{d} {fmt(row[key])}" for d, row in ctx["rows"].items())
+    own = ctx["on_seeds"].get(key)
+    mine = "" if own is None else f"; this run on {seeds}: {fmt(own)}"
+    return more(f"{ctx['source']}, {seeds}: {figures}{mine}")
+
+
+def fidelity_rows(r: dict[str, Any], ctx: dict[str, Any] | None = None
+                  ) -> list[tuple[str, str]]:
     """Weight error, decision agreement and read SNR against the float64 twin
-    (:mod:`cml_edge.core.fidelity`); one row saying why where there is no twin."""
+    (:mod:`cml_edge.core.fidelity`), each beside the reference devices' figure on the same
+    protocol where ``ctx`` (:func:`cml_edge.report.reference.context`) has them; one row
+    saying why where there is no twin."""
     if "weight_error" not in r:
         return []
     if r["weight_error"] is None:
@@ -147,22 +161,64 @@ def fidelity_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
         agreement += f"  ({agreed:,} of {total:,} decisions as the twin's)"
     snr = r.get("read_snr") or {}
     means = [(m, (snr.get(m) or {}).get("mean")) for m in MATRICES]
-    if all(v is None for _, v in means):
-        reads = "n/a (no read error beyond float64 rounding)"
-    else:
-        reads = ", ".join(f"{m} {num(v)}" for m, v in means)
     rounding = err.get("max") is not None and err["max"] < READ_ROUNDING
     what = "the twin's arithmetic: float64 rounding at most" if rounding else \
         "||W - W_twin|| / ||W_twin||, mean of W_q W_k W_v"
-    return [("weight error", f"{spread(err)}  ({what})"),
-            ("decision agreement", agreement),
-            ("read SNR", reads)]
+    rows = [("weight error", f"{spread(err)}  ({what})"), *_beside(ctx, "weight_error", num),
+            ("decision agreement", agreement), *_beside(ctx, "decision_agreement", pct)]
+    if all(v is None for _, v in means):
+        return [*rows, ("read SNR", "n/a (no read error beyond float64 rounding)")]
+    return [*rows, ("read SNR", ", ".join(f"{m} {num(v)}" for m, v in means)),
+            *more("(the device's reads against exact products of its own weights: the noise "
+                  "of its read path, not its weights' error, so a coarse device can read "
+                  "clean)")]
+
+
+def reference_rows(r: dict[str, Any], ctx: dict[str, Any] | None) -> list[tuple[str, str]]:
+    """The verdict of an ``emulate`` run (:mod:`cml_edge.report.verdict`): against float64
+    on the same protocol (the reference report's) where there is one, else against a
+    navigator that reaches every goal on its shortest path."""
+    from cml_edge.report.verdict import judge
+
+    agreement = (r.get("decision_agreement") or {}).get("mean")
+    base = (ctx or {}).get("baseline") if ctx and not ctx["differs"] else None
+    v = judge(r["success_rate"], r.get("overhead_mean"), agreement,
+              base["success_rate"] if base else 1.0, base["overhead_mean"] if base else 1.0)
+    if v is None:
+        return []
+    against = ("float64 on the same protocol (reference report)" if base else
+               "a navigator reaching every goal by its shortest path")
+    figures = [f"success {pct(r['success_rate'])}", f"overhead {num(r.get('overhead_mean'))}"]
+    if agreement is not None:
+        figures.append(f"agreement {pct(agreement)}")
+    if v.reasons:
+        text = f"{v.text()}; against {against} (thresholds: docs/report.md)"
+    else:
+        text = f"{v.level}: {', '.join(figures)}; against {against} (thresholds: " \
+               "docs/report.md)"
+    first, *rest = wrap(text)
+    rows = [("verdict", first), *(("", line) for line in rest)]
+    if ctx and ctx["differs"]:
+        rows += more("no reference figures: the reference report measures the paper's "
+                     "protocol; this run differs in " + "; ".join(ctx["differs"]))
+    return rows
+
+
+COUNTER_WORDS = {
+    "saturations": "weight writes saturated", "weight_saturations": "weight writes saturated",
+    "acc_saturations": "learning-accumulator writes saturated",
+    "mac_saturations": "read sums saturated", "product_saturations": "learning products "
+    "saturated", "neuron_wraps": "neuron inputs wrapped", "sign_clips": "weights clipped to "
+    "their sign", "program_clips": "weights clipped when programmed",
+}
+"""What each saturation or clipping counter of the devices counts, in words."""
 
 
 def saturation(counters: dict[str, int] | None) -> str | None:
     """The device's saturation and clipping counters (names holding ``saturation``,
-    ``clip`` or ``wrap``): their total and each nonzero one, as a fraction of the
-    conversions where the device counts them (``X_saturations`` of ``X_conversions``)."""
+    ``clip`` or ``wrap``): their total and each nonzero one in words
+    (:data:`COUNTER_WORDS`), as a fraction of the conversions where the device counts them
+    (``X_saturations`` of ``X_conversions``)."""
     if counters is None:
         return None
     found = {k: v for k, v in counters.items()
@@ -176,7 +232,7 @@ def saturation(counters: dict[str, int] | None) -> str | None:
             parts.append(f"{v:,} of {conversions:,} {k.split('_')[0].upper()} conversions"
                          + (f" ({pct(v / conversions)})" if v else ""))
         elif v:
-            parts.append(f"{k} {v:,}")
+            parts.append(f"{v:,} {COUNTER_WORDS.get(k, k.replace('_', ' '))}")
     total = sum(found.values())
     if not total:
         return parts[0] if parts else f"0 ({plural(len(found), 'counter')}: " \
@@ -199,9 +255,15 @@ def show_protocol(r: dict[str, Any], command: str = "emulate") -> None:
         head += f", map {r['map']}"
     if "walks" in r:
         head += f"; trained {r['walks']} walks x {r['steps']} steps ({r['explore']})"
+    ctx = None
+    if command == "emulate":
+        from cml_edge.report.reference import context
+
+        ctx = context(r)
     rows = [("device", device_label(r["backend"], r.get("backend_options"))),
             *beyond_rows(r), ("success rate", _success(r)), ("path overhead", _overhead(r)),
-            *fidelity_rows(r), ("saturation", saturation(r.get("counters"))),
+            *fidelity_rows(r, ctx), ("saturation", saturation(r.get("counters"))),
+            *(reference_rows(r, ctx) if command == "emulate" else []),
             ("time", secs(r["wall_time_s"]) if "wall_time_s" in r else None)]
     print("\n".join([head, *labelled(rows)]))
 

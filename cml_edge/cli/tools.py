@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from collections.abc import Sequence
@@ -11,8 +12,9 @@ from pathlib import Path
 from typing import Any
 
 from cml_edge.backends import BACKENDS, configurations, report_systems
+from cml_edge.cli import limits
 from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
-from cml_edge.cli.output import num, plural, table
+from cml_edge.cli.output import labelled, num, plural, secs, table
 from cml_edge.errors import InputError
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.io.files import writable_folder
@@ -46,10 +48,16 @@ def add_parsers(sub) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(run=cmd_sweep, show=show_sweep)
 
-    p = sub.add_parser("report", help="write the hardware-budget report (markdown, JSON, "
-                       "figures)")
-    p.add_argument("--out", required=True, metavar="FOLDER",
-                   help="report folder (report.md, report.json, figures)")
+    p = sub.add_parser("report", help="write the hardware-budget report (an HTML page, "
+                       "markdown, JSON, figures)")
+    p.add_argument("--out", default=None, metavar="FOLDER",
+                   help="report folder (report.html, report.md, report.json, figures)")
+    p.add_argument("--render", default=None, metavar="FOLDER",
+                   help="render a report folder again from its report.json, running nothing "
+                        "(instead of --out)")
+    p.add_argument("--compare", default=None, metavar="OLD_FOLDER",
+                   help="show what changed since the report in this folder (per device and "
+                        "scenario, in report.html and report.md)")
     p.add_argument("--quick", action="store_true",
                    help="every section on 2 seeds at the quick budget (30 walks, 50 "
                         "pairs): a fraction of the full protocol's time")
@@ -68,7 +76,7 @@ def add_parsers(sub) -> None:
                    help="also run this device in the budget and the scorecard (repeatable: a "
                         "plugin's device, or a configuration the report leaves out)")
     p.add_argument("--json", action="store_true", help="print the report JSON on stdout")
-    p.set_defaults(run=cmd_report)
+    p.set_defaults(run=cmd_report, show=show_report)
 
     p = sub.add_parser("bench", help="time the training and planning loops")
     p.add_argument("--backends", nargs="+", default=None,
@@ -89,20 +97,41 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_bench, show=show_bench)
 
 
+def _report_folders(args: argparse.Namespace) -> tuple[dict[str, Any], str] | None:
+    """Check --out / --render and --compare before any work; the report to compare with
+    and its folder (None without --compare)."""
+    from cml_edge.report import load_report
+
+    if (args.out is None) == (args.render is None):
+        raise InputError("give one of --out FOLDER (run the report) and --render FOLDER "
+                         "(render a report folder again from its report.json)")
+    if args.render is not None:
+        load_report(args.render, "--render")
+    out, flag = (args.out, "--out") if args.out else (args.render, "--render")
+    writable_folder(out, flag)
+    writable_folder(Path(out).parent, f"{flag}'s folder")  # the report is renamed there
+    if args.compare is None:
+        return None
+    return load_report(args.compare, "--compare"), args.compare
+
+
 def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.baselines import load_results
     from cml_edge.baselines.settings import RESULTS_PATH
+    from cml_edge.engine import timings
     from cml_edge.engine.sweep import check_scheduler
-    from cml_edge.report import build_report, write_report
+    from cml_edge.report import build_report, render_report, write_report
     from cml_edge.report.scorecard import ScorecardPlan
 
+    old = _report_folders(args)
+    if args.render is not None:
+        folder = render_report(args.render, old)
+        return _written(folder, json.loads((folder / "report.json").read_text()))
     if args.dqn_results is not None and not Path(args.dqn_results).is_file():
         raise InputError(f"--dqn-results {args.dqn_results!r}: no such file")
     load_results(args.dqn_results or RESULTS_PATH)  # a bad file fails now, not after the runs
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
-    writable_folder(args.out, "--out")
-    writable_folder(Path(args.out).parent, "--out's folder")  # the report is renamed there
     extra = [c for c in configurations(args.with_) if c not in report_systems()]
     plan = ScorecardPlan.of(args.quick)
     say_estimate()
@@ -113,10 +142,19 @@ def cmd_report(args: argparse.Namespace) -> dict[str, Any]:
                           dqn_results=args.dqn_results or RESULTS_PATH, folder=args.out,
                           workers=args.workers, scheduler=args.scheduler,
                           restart=args.restart)
-    folder = write_report(report, args.out)
-    if args.json:
-        return report
-    return {"report": str(folder / "report.md"), "systems": len(report["systems"]),
+    report["timings"] = timings.snapshot()  # the run's stages, in report.json too
+    folder = write_report(report, args.out, old)
+    return report if args.json else _written(folder, report)
+
+
+def _written(folder: Path, report: dict[str, Any]) -> dict[str, Any]:
+    """What ``report`` prints without --json: where the files are, the verdicts."""
+    from cml_edge.report.verdict import device_verdicts
+
+    worst = device_verdicts(report.get("scorecard") or [])
+    return {"page": str(folder / "report.html"), "report": str(folder / "report.md"),
+            "json": str(folder / "report.json"), "systems": len(report["systems"]),
+            "verdicts": {d: v.text() for d, v in worst.items()},
             "wall_time_s": report["wall_time_s"]}
 
 
@@ -172,9 +210,9 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     if args.map:  # fail on a bad file now, before any task runs
         from cml_edge.grid.maps import load_map, load_scen, resolve_map
 
-        load_map(resolve_map(args.map))
-        if args.scen:
-            load_scen(args.scen)
+        grid = load_map(resolve_map(args.map))
+        problems = {"trials": len(load_scen(args.scen))} if args.scen else {}
+        limits.recheck(args, arena=grid.side, **problems)
     summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
                              progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
                              planner=args.planner, map=args.map, scen=args.scen,
@@ -218,6 +256,17 @@ def show_bench(r: dict[str, Any]) -> None:
     for sim, f in (r.get("robot") or {}).items():
         print(f"  robot on {sim}: {num(f['train_actions_per_s'])} training and "
               f"{num(f['plan_actions_per_s'])} planning actions/s")
+
+
+def show_report(r: dict[str, Any]) -> None:
+    """``report``: where its page and files are, and each device's worst verdict."""
+    print(f"report: {r['page']} (open it in a browser), {r['report']}, {r['json']}")
+    rows = [(device, verdict) for device, verdict in r["verdicts"].items()]
+    if rows:
+        print("  worst verdict of each device over the scorecard's scenarios:")
+        print("\n".join("  " + line for line in labelled(rows)))
+    print(f"  {plural(r['systems'], 'system')} in the budget; the report took "
+          f"{secs(r['wall_time_s'])}")
 
 
 def show_sweep(r: dict[str, Any]) -> None:

@@ -70,6 +70,7 @@ class Timings:
         self.stages: dict[str, Stage] = {}
         self.open: list[str] = []
         self.total = Stage()
+        self.started = _clocks()
         self._timer: event.TimingListener | None = None
 
     def compiled(self) -> float:
@@ -142,6 +143,20 @@ def stage(name: str) -> Iterator[None]:
         return
     with _CURRENT[-1].stage(name):
         yield
+
+
+def snapshot() -> dict[str, Any] | None:
+    """The current recording so far (:meth:`Timings.to_dict`, its totals up to now), or
+    None when nothing is recorded: what a command writes into its own result file before
+    it ends (the stages still open count up to now)."""
+    if not _CURRENT:
+        return None
+    timings = _CURRENT[-1]
+    out = timings.to_dict()
+    wall, cpu = _clocks()
+    out.update(wall_s=wall - timings.started[0], cpu_s=cpu - timings.started[1],
+               compile_s=timings.compiled())
+    return out
 
 
 def merge(other: Mapping[str, Any] | None) -> None:

@@ -7,18 +7,17 @@ model), adds the DQN baseline from its results file, runs the precision sweeps a
 scorecard, and returns one JSON-ready dict. The systems, sweeps and break points are
 those the devices declare (:func:`cml_edge.backends.report_systems`,
 :func:`~cml_edge.backends.report_sweeps`, :mod:`cml_edge.report.scorecard`).
-:func:`write_report` renders ``report.md`` and the figures from that dict alone, so every
-number in the markdown is a number of ``report.json``; it writes everything into a
-temporary folder and renames it into place, so an interrupted report leaves no
-half-written files.
+:func:`write_report` renders ``report.md``, ``report.html`` and the figures from that dict
+alone (:mod:`cml_edge.report.render`), so every number on the pages is a number of
+``report.json``; it writes everything into a temporary folder and renames it into place,
+so an interrupted report leaves no half-written files. :func:`render_report` renders a
+report folder again from its ``report.json`` (``cml-edge report --render``).
 """
 
 from __future__ import annotations
 
 import os
 import platform
-import shutil
-import tempfile
 import time
 from collections.abc import Callable
 from datetime import datetime, timezone
@@ -37,7 +36,7 @@ from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
 from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
-from cml_edge.errors import RunError
+from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
     PROTOCOL_TASK,
@@ -50,7 +49,7 @@ from cml_edge.grid.evaluation import (
 )
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.training import TrainConfig
-from cml_edge.io.files import display_path
+from cml_edge.io.files import atomic_folder, display_path
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
@@ -304,34 +303,43 @@ def _versions() -> dict[str, str]:
             "matplotlib": matplotlib.__version__}
 
 
-def write_report(report: dict[str, Any], out: str | Path) -> Path:
-    """Write report.json, report.md and the figures into ``out``, all or nothing."""
-    from cml_edge.report.render import render_figures, render_markdown
+def load_report(folder: str | Path, flag: str = "--render") -> dict[str, Any]:
+    """The report.json of report folder ``folder`` (InputError naming ``flag`` where there
+    is none, or it is not a report of this schema)."""
+    import json
 
-    out = Path(out)
+    path = Path(folder) / "report.json"
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    except OSError as exc:
-        raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror})") from None
-    try:
+        report = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{flag} {str(folder)!r}: no readable report.json there "
+                         f"({exc.__class__.__name__})") from None
+    if not isinstance(report, dict) or report.get("schema_version") != SCHEMA_VERSION:
+        raise InputError(f"{flag} {str(folder)!r}: report.json is not a report of schema "
+                         f"{SCHEMA_VERSION} (cml-edge report writes one)")
+    return report
+
+
+def write_report(report: dict[str, Any], out: str | Path,
+                 old: tuple[dict[str, Any], str] | None = None) -> Path:
+    """Write report.json, report.md, report.html and the figures into ``out``, all or
+    nothing (:func:`~cml_edge.io.files.atomic_folder`); ``old``: (an older report, its
+    folder) whose differences the pages show."""
+    from cml_edge.report import render
+
+    def write(folder: Path) -> None:
         with stage("figures"):
-            figures = render_figures(report, tmp)
+            figures = render.render_figures(report, folder)
         with stage("write"):
-            (tmp / "report.json").write_text(dumps(report, indent=1, sort_keys=True))
-            (tmp / "report.md").write_text(render_markdown(report, figures))
-        if out.exists():
-            old = out.with_name(f".{out.name}.old")
-            shutil.rmtree(old, ignore_errors=True)
-            os.replace(out, old)
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError):
-            raise RunError(f"cannot write the report to {str(out)!r} ({exc.strerror}); "
-                           f"nothing was written there") from None
-        raise
-    return out
+            (folder / "report.json").write_text(dumps(report, indent=1, sort_keys=True))
+            (folder / "report.md").write_text(render.render_markdown(report, figures, old))
+            (folder / "report.html").write_text(render.render_html(report, folder, figures,
+                                                                   old))
+
+    return atomic_folder(out, write)
+
+
+def render_report(folder: str | Path, old: tuple[dict[str, Any], str] | None = None) -> Path:
+    """Render report folder ``folder`` again from its report.json alone (nothing runs):
+    report.md, report.html and the figures, in place; the JSON is kept as it was."""
+    return write_report(load_report(folder), folder, old)

@@ -14,8 +14,10 @@ from numba import njit
 from cml_edge.bench.timing import ratios
 from cml_edge.cli import build_parser
 from cml_edge.cli.compiling import announce_compiles, what_compiles
-from cml_edge.cli.output import num, saturation, show_fields
+from cml_edge.cli.output import fidelity_rows, num, reference_rows, saturation, show_fields
 from cml_edge.cli.tools import show_bench
+from cml_edge.report.numbers import human
+from cml_edge.report.reference import PROTOCOL, context
 
 RUN = ["--seeds", 1, "--trials", 5, "--walks", 5, "--steps", 100]
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,7 +53,7 @@ def test_the_emulate_table_names_the_preset_and_its_fidelity_on_one_screen(cli):
     assert "crossbar (preset pcm)" in rows["device"]
     assert re.search(r" %  \([0-5] of 5 trials\)$", rows["success rate"]), out
     for row in ("path overhead", "weight error", "decision agreement", "read SNR",
-                "saturation", "time"):
+                "saturation", "verdict", "time"):
         assert row in rows, out
     assert "ADC conversions" in rows["saturation"] and "decisions" in rows["decision agreement"]
     assert "fidelity_twin" not in out and "matvecs" not in out  # no raw dump
@@ -99,9 +101,17 @@ def test_emulate_on_chips_ends_with_the_table(cli, tmp_path):
 
 
 def test_numbers_have_sensible_digits():
+    """Three significant digits, thousands separators, no exponent for a count or a size:
+    the report's formatting (cml_edge.report.numbers)."""
     assert [num(v) for v in (0.37595245132562005, 2.4515, 1192.4, 3.3e15, 4.76e-17, 0.0, 7,
-                             None)] == ["0.376", "2.45", "1,192", "3.30e+15", "4.76e-17", "0",
-                                        "7", "n/a"]
+                             6367854592, None)] == [
+        "0.376", "2.45", "1,190", "3,300 trillion", "4.76e-17", "0", "7", "6.37 billion",
+        "n/a"]
+    assert [human(v, u) for v, u in ((36864, "B"), (5303.2, "uJ"), (1.13, "nJ"),
+                                     (0.9233, "%"), (1, "%"), (0.99996, "%"),
+                                     (3.15576e9, "s"), (130.5, "s"))] == [
+        "36.9 kB", "5.3 mJ", "1.13 nJ", "92.3 %", "100 %", "99.996 %", "100 years",
+        "2.17 min"]
 
 
 def test_saturation_reads_the_devices_counters():
@@ -109,7 +119,47 @@ def test_saturation_reads_the_devices_counters():
     assert saturation({"adc_conversions": 1000, "adc_saturations": 5}) == \
         "5 of 1,000 ADC conversions (0.5 %)"
     assert saturation({"acc_saturations": 2, "sign_clips": 1, "neuron_wraps": 0}) == \
-        "3: acc_saturations 2, sign_clips 1"
+        "3: 2 learning-accumulator writes saturated, 1 weights clipped to their sign"
+    assert saturation({"saturations": 70}) == "70 weight writes saturated"
+
+
+PAPER_RUN = {**PROTOCOL, "backend": "crossbar", "backend_options": {}, "success_rate": 1.0,
+             "overhead_mean": 1.0, "seeds": 10, "trials": 100,
+             "weight_error": {"matrix_mean": {"mean": 0.885, "std": 0.1, "min": 0.7,
+                                              "max": 1.0}},
+             "decision_agreement": {"mean": 0.794, "std": 0.05, "min": 0.7, "max": 0.9},
+             "per_seed": [{"seed": s, "weight_error": {"matrix_mean": 0.8},
+                           "decision_agreement": 0.83} for s in range(10)]}
+
+
+def test_the_fidelity_stands_beside_the_reference_devices():
+    """On the paper's protocol, weight error and agreement are placed beside the reference
+    report's devices (seeds 0-2) and the run's own mean on those seeds; a verdict names
+    what it was judged against."""
+    ctx = context(PAPER_RUN)
+    assert ctx["own"] == "crossbar-pcm" and not ctx["differs"]
+    text = "\n".join(f"{a} {b}" for a, b in fidelity_rows(PAPER_RUN, ctx))
+    assert "reference report, seeds 0-2: crossbar-pcm 83.2 %, float32 100 %, int8 82.1 %" \
+        in text
+    assert "this run on seeds 0-2: 83 %" in text
+    verdict = " ".join(b for _, b in reference_rows(PAPER_RUN, ctx))
+    assert verdict.startswith("survives: success 100 %, overhead 1, agreement 79.4 %")
+    assert "float64 on the same protocol (reference report)" in verdict
+    other = {**PAPER_RUN, "walks": 30}
+    rows = reference_rows(other, context(other))
+    assert "walks 30 (reference: 100)" in " ".join(b for _, b in rows)
+    assert "reference report" not in "\n".join(b for _, b in fidelity_rows(other,
+                                                                            context(other)))
+    worse = {**PAPER_RUN, "success_rate": 0.85}
+    assert reference_rows(worse, context(worse))[0][1].startswith(
+        "fails: success 85 % (float64 100 %)")
+
+
+def test_emulate_out_carries_the_timings_its_json_has(cli, tmp_path):
+    code, out, err = cli("emulate", "--backend", "int8", *RUN, "--out", tmp_path / "r.json")
+    assert code == 0, err
+    written = json.loads((tmp_path / "r.json").read_text())
+    assert set(written) == EMULATE_KEYS and written["timings"]["stages"]
 
 
 def _bench_result():
@@ -173,7 +223,7 @@ def test_show_fields_labels_and_leaves_the_rest_to_json(capsys):
                  "actions_per_s": 1234.5678, "grid": list(range(20)), "_private": 1})
     out = capsys.readouterr().out
     assert out.splitlines() == ["  report         r/report.md", "  systems        7",
-                                "  wall time      2.2 min", "  actions per s  1,235",
+                                "  wall time      2.17 min", "  actions per s  1,230",
                                 "  (--json also gives grid)"]
 
 
@@ -241,7 +291,7 @@ def test_the_breakpoint_view(capsys):
                        "quick budget"
     assert lines[1].split()[:3] == ["break", "point", "9:"]
     assert [line.split() for line in lines[4:]] == [
-        ["levels", "success"], ["2", "10.0", "%"], ["9", "96.0", "%"], ["64", "100.0", "%"]]
+        ["levels", "success"], ["2", "10", "%"], ["9", "96", "%"], ["64", "100", "%"]]
 
 
 def test_the_dqn_view(capsys):
@@ -254,7 +304,7 @@ def test_the_dqn_view(capsys):
               "convergence_ratio": {"factored": {"wall": 100.0, "cpu": 168.0, "steps": 3.0}}})
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == "dqn evaluate: simplified, 2 seeds, 100,000 training steps"
-    assert lines[2].split() == ["DQN", "50.0", "%", "1.23", "2.5", "42", "s"]
+    assert lines[2].split() == ["DQN", "50", "%", "1.23", "2.5", "42", "s"]
     assert lines[3].split()[:2] == ["CML", "factored"]
     assert "168 x the CPU time" in lines[-1]
 

@@ -109,7 +109,8 @@ def test_a_full_disk_while_writing_the_report(tmp_path, monkeypatch):
 
     monkeypatch.setattr("cml_edge.report.build.os.replace", _full_disk)
     monkeypatch.setattr("cml_edge.report.render.render_figures", lambda r, f: {})
-    monkeypatch.setattr("cml_edge.report.render.render_markdown", lambda r, f: "")
+    monkeypatch.setattr("cml_edge.report.render.render_markdown", lambda r, f, o=None: "")
+    monkeypatch.setattr("cml_edge.report.render.render_html", lambda r, d, f, o=None: "")
     with pytest.raises(RunError, match="nothing was written"):
         write_report({"a": 1}, tmp_path / "rep")
     assert list(tmp_path.iterdir()) == []

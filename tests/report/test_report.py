@@ -10,7 +10,7 @@ from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
 from cml_edge.errors import InputError
 from cml_edge.report import build_report, write_report
-from cml_edge.report.render import fmt
+from cml_edge.report.numbers import human
 from cml_edge.report.scorecard import Breakpoint, ScorecardPlan, breakpoint_row
 
 
@@ -105,24 +105,6 @@ def test_the_reference_plan_is_what_the_devices_declare():
     assert repr(derived) == repr(HAND_BREAKPOINTS)
 
 
-# the scorecard's machinery on a smoke-test budget (its numbers mean nothing of a device)
-TINY_CARD = ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {}),
-                                                 ("crossbar-pcm", "crossbar", {"preset": "pcm"})],
-                          scenarios=("paper", "recovery"),
-                          breakpoints=(Breakpoint("float32", "float32", {}, "drift_time"),),
-                          workers=1)
-
-
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    rep = build_report(quick=True, systems=[("float32", "float32", {})],
-                       sweeps=[("read noise", "pcm read_noise 0.2", "crossbar",
-                                {"preset": "pcm", "read_noise": 0.2})], scorecard=TINY_CARD)
-    out = tmp_path_factory.mktemp("rep") / "r"
-    write_report(rep, out)
-    return rep, out
-
-
 @pytest.mark.slow
 def test_schema(report):
     rep, out = report
@@ -156,6 +138,10 @@ def test_the_quick_report_runs_every_section_at_the_quick_budget(report):
     assert row["train_steps"] == quick.walks * quick.steps  # the ledger's model too
 
 
+UNITS = ("", "%", "B", "uJ", "nJ", "pJ", "s", "pulses")
+"""The units the report's tables print a number of report.json in."""
+
+
 def _numbers(obj):
     if isinstance(obj, dict):
         for v in obj.values():
@@ -164,18 +150,37 @@ def _numbers(obj):
         for v in obj:
             yield from _numbers(v)
     elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
-        yield fmt(obj)
+        yield obj
+
+
+def _md_cells(md: str) -> list[str]:
+    return [c.strip() for line in md.splitlines() if line.startswith("| ")
+            for c in line.strip("|").split("|")]
 
 
 @pytest.mark.slow
 def test_every_number_in_the_markdown_tables_is_in_the_json(report):
+    """Each number of report.md's tables is a number of report.json as people read it
+    (human, in one of the report's units), or the DQN's energy over a CML device's."""
     _, out = report
-    known = set(_numbers(json.loads((out / "report.json").read_text())))
+    data = json.loads((out / "report.json").read_text())
+    known = {human(v, u) for v in _numbers(data) for u in UNITS}
+    energy = [s["energy_per_run_uj"] for s in data["systems"] if s["energy_per_run_uj"]]
+    known |= {human(a / b, "x") for a in energy for b in energy}
     md = (out / "report.md").read_text()
-    cells = [c.strip() for line in md.splitlines() if line.startswith("| ")
-             for c in line.strip("|").split("|")]
-    numbers = [c for c in cells if re.fullmatch(r"-?[0-9][0-9.e+-]*", c)]
+    numbers = [c for c in _md_cells(md) if re.fullmatch(r"-?[0-9][0-9.,e+-]*( \S+)?", c)]
     assert numbers and all(n in known for n in numbers), [n for n in numbers if n not in known]
+
+
+def test_the_reference_markdown_has_no_exponent_for_a_count_or_a_size(reference_page):
+    """report.md's counts and byte sizes read in full, with SI prefixes or in words; only a
+    weight error at float64 rounding keeps an exponent."""
+    md = (reference_page / "report.md").read_text()
+    assert "e+" not in md
+    tables = [line for line in md.splitlines() if line.startswith("| ")]
+    exponents = [c for line in tables for c in _md_cells(line) if re.search(r"\de-", c)]
+    assert exponents and all(re.fullmatch(r"\d\.\d\de-\d\d", c) for c in exponents)
+    assert "| 36.9 kB |" in md and "| 100 % |" in md
 
 
 @pytest.mark.slow

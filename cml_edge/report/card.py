@@ -1,0 +1,128 @@
+"""The scorecard's sections of the report: the verdicts, every device on every scenario,
+the break points, recovery (:mod:`cml_edge.report.scorecard` measures them)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from cml_edge.report.sections import (
+    Section,
+    command,
+    device_flags,
+    report_command,
+    scenario_command,
+    seeds_text,
+    verdict_table,
+)
+from cml_edge.report.tables import Cell, Table, at
+from cml_edge.report.verdict import part_verdicts
+
+
+def scorecard(report: dict[str, Any]) -> Section:
+    """The verdicts, then one table per scenario: a row per device and part."""
+    from cml_edge.scenarios import SCENARIOS
+
+    rows, plan = report["scorecard"], report["scorecard_plan"]
+    verdicts = part_verdicts(rows)
+    blocks: list[str | Table] = [verdict_table(report, "scorecard-verdicts")]
+    for scenario in dict.fromkeys(r["scenario"] for r in rows):
+        table = Table(f"scenario-{scenario}", ["device", "part", "success", "decision agreement",
+                                               "weight error", "path overhead", "verdict"])
+        for i, r in enumerate(rows):
+            if r["scenario"] != scenario:
+                continue
+            v = verdicts.get((r["device"], scenario, r["part"]))
+            table.add(r["device"], [
+                r["part"], at(report, f"scorecard.{i}.success_rate", "%"),
+                at(report, f"scorecard.{i}.decision_agreement", "%"),
+                at(report, f"scorecard.{i}.weight_error"),
+                at(report, f"scorecard.{i}.overhead_mean"),
+                "n/a" if v is None else Cell(text=v.text(), verdict=v.level,
+                                             key=f"{r['device']}|{scenario}|{r['part']}")],
+                scenario_command(report, r["device"], scenario, plan))
+        doc = SCENARIOS[scenario].doc if scenario in SCENARIOS else ""
+        blocks += [f"**{scenario}**. {doc}", table]
+    return Section("scorecard", "The scorecard: every device on every scenario", (
+        f"Each device runs each scenario on {seeds_text(plan['seeds'])} at the "
+        f"`{plan['budget']}` budget, as `cml-edge scenario NAME --backend ... --seeds "
+        f"{plan['seeds']}` does (each row's command is its tooltip in report.html); "
+        f"`{report_command(report)}`. Success saturates on the easy parts, so the decision "
+        "agreement (the share of planning decisions at which the float64 twin, trained on "
+        "the same walks from the same seed, picks the same move) and the weight error (the "
+        "three matrices' mean relative Frobenius error against that twin) rank the devices "
+        "there. Seed spreads are in report.json."), blocks)
+
+
+KNOB_UNITS = {"drift_time": "s", "stuck": "%"}
+"""The unit a knob's value reads in (:func:`~cml_edge.report.numbers.human`): the others
+are plain numbers (read noise, levels, bits)."""
+
+
+def breakpoint_command(b: dict[str, Any]) -> str:
+    """The ``cml-edge breakpoint`` command of one break point of the report."""
+    budget = [] if b["budget"] == "full" else ["--budget", b["budget"]]
+    return command("breakpoint", *device_flags(b["backend"], b.get("options") or {}),
+                   "--knob", b["knob"], "--scenario", b["scenario"], "--target",
+                   f"{b['target']:g}", "--seeds", str(b["seeds"]), *budget)
+
+
+def breakpoints(report: dict[str, Any]) -> Section:
+    """Where each knob breaks the paper scenario, or that it does not within its range:
+    the knob's two ends and the success there (the first two evaluations)."""
+    table = Table("breakpoints", ["device", "knob", "breaks at (last good)", "first bad",
+                                  "good end", "success there", "bad end", "success there",
+                                  "evaluations"])
+    for i, b in enumerate(report["breakpoints"]):
+        unit = KNOB_UNITS.get(b["knob"], "")
+        row = f"breakpoints.{i}"
+        if b.get("bracket"):
+            found = [at(report, f"{row}.value", unit), at(report, f"{row}.bracket.1", unit)]
+        else:
+            found = [Cell(text="none in range"), Cell(text="none")]
+        ends = [at(report, f"{row}.evaluations.{e}.{k}", u)
+                for e in (0, 1) for k, u in (("value", unit), ("success_rate", "%"))]
+        table.add(b["device"], [b["knob"], *found, *ends,
+                                at(report, f"{row}.n_evaluations")], breakpoint_command(b))
+    plan = report["scorecard_plan"]
+    return Section("breakpoints", "Break points", (
+        f"The knob value at which the scenario's success (its worst part) last meets the "
+        f"target {Cell(plan['target'], '%').shown()}, by bisection on a 17-point seeded grid "
+        f"from the knob's good end, {seeds_text(plan['breakpoint_seeds'])} at the "
+        f"`{plan['budget']}` budget (`cml-edge breakpoint --knob KNOB --scenario paper`: "
+        f"each row's command is its tooltip in report.html); `{report_command(report)}`. "
+        "none in range: the knob's physical range does not bracket the target (the success "
+        "at its two ends says which way)."), [table])
+
+
+def recovery(report: dict[str, Any]) -> Section | None:
+    """Relearning in place after a year of drift, and the DQN's estimate to retrain."""
+    rec = report["recovery"]
+    if not rec:
+        return None
+    table = Table("recovery", ["device", "walks K", "success", "decision agreement",
+                               "weight error", "pulses", "cells written", "energy"])
+    for i, r in enumerate(rec):
+        table.add(r["device"], [at(report, f"recovery.{i}.{k}", u) for k, u in (
+            ("walks", ""), ("success_rate", "%"), ("decision_agreement", "%"),
+            ("weight_error", ""), ("pulses", ""), ("writes", ""), ("energy_uJ", "uJ"))])
+    blocks: list[str | Table] = [table]
+    dqn = report.get("dqn_retrain") or {}
+    if dqn.get("available"):
+        est = Table("dqn-retrain", ["DQN configuration", "bound", "environment steps",
+                                    "gradient steps", "MACs", "energy"])
+        for i, c in enumerate(dqn["configs"]):
+            for bound, key in (("lower: replay refill", "replay_refill"),
+                               ("upper: from scratch", "to_converge")):
+                if c.get(key):
+                    base = f"dqn_retrain.configs.{i}.{key}"
+                    est.add(c["config"], [bound, *(at(report, f"{base}.{k}", u) for k, u in (
+                        ("env_steps", ""), ("gradient_steps", ""), ("macs", ""),
+                        ("energy_uJ", "uJ")))])
+        blocks += ["A DQN cannot relearn this way on a chip: it needs its replay buffer and "
+                   f"gradient steps. Its cost to retrain, estimated ({dqn['method']}):", est]
+    seeds = rec[0]["seeds"]
+    return Section("recovery", "Recovery: relearning on the chip after a year of drift", (
+        f"K self-supervised walks of in-situ relearning (the local rule, each update applied "
+        f"on the device) after a year idle, the `recovery` scenario on {seeds_text(seeds)}; "
+        f"what the relearning cost the arrays (seed means; energy n/a where the technology "
+        f"has no sourced figure); `{report_command(report)}`."), blocks)
