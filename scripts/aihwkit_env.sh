@@ -6,8 +6,9 @@
 # Where: $CML_EDGE_AIHWKIT_VENV, else ~/.cache/cml-edge/aihwkit-venv (outside the
 # repository: one environment for every clone, kept between CI runs on a machine). The
 # interpreter: $CML_EDGE_AIHWKIT_PYTHON (a Python 3.11), else python3.11 on PATH, else
-# python3. `cml-edge device characterize --against aihwkit`, `--preset aihwkit:NAME`,
-# benchmarks/vs_aihwkit.py and the tests marked `aihwkit` find it at the same place.
+# python3. `cml-edge device characterize --against aihwkit`, benchmarks/vs_aihwkit.py and
+# the tests marked `aihwkit` find it at the same place (`--preset aihwkit:NAME` needs it only
+# to write cml_edge/data/aihwkit_presets.json again).
 #
 # Why it is a second environment: aihwkit 1.1.0's compiled simulator runs only beside
 # exactly torch 2.10.0 (2.9.1 fails at import, undefined c10::TensorImpl symbol; 2.13.0

@@ -15,8 +15,8 @@ from typing import Any
 
 from cml_edge.backends import DEVICES, backend_spec
 from cml_edge.cli.args import Progress, add_backend, backend_options, command_line, int_at_least
-from cml_edge.core.finite import dumps
-from cml_edge.errors import InputError
+from cml_edge.core.finite import check_finite, dumps
+from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
 
 
@@ -56,7 +56,8 @@ def add_parsers(sub) -> None:
     c.add_argument("--against", choices=("aihwkit",), default=None,
                    help="run the same measurements on IBM aihwkit's tiles (its own "
                         "environment: bash scripts/aihwkit_env.sh) and print both side by "
-                        "side, with a within-10 %% verdict per row")
+                        "side, with a within-10 %% verdict per row; exit status 1 when "
+                        "fewer than 90 %% of the rows are within")
     c.set_defaults(run=cmd_characterize)
 
 
@@ -115,16 +116,27 @@ def _written(args: argparse.Namespace, result: dict[str, Any], figure: Any) -> d
 
 
 def _against(args: argparse.Namespace, preset: str, options: dict[str, Any]) -> dict[str, Any]:
-    """``--against aihwkit``: :func:`cml_edge.backends.crossbar.aihwkit.compare.compare`."""
+    """``--against aihwkit``: :func:`cml_edge.backends.crossbar.aihwkit.compare.compare`;
+    RunError (status 1) after printing the result when its verdict fails."""
     from cml_edge.backends.crossbar.aihwkit.compare import DEFAULT_DEVICES, compare, figure
 
     for flag in ("targets", "times"):
         if getattr(args, flag) is not None:
             raise InputError(f"--{flag} is not taken with --against (both sides measure the "
                              "default targets and times)")
-    result = compare(preset, devices=args.devices or DEFAULT_DEVICES, seed=args.seed,
-                     progress=Progress("characterize"), **options)
-    return _written(args, result, figure)
+    result = _written(args, compare(preset, devices=args.devices or DEFAULT_DEVICES,
+                                    seed=args.seed, progress=Progress("characterize"),
+                                    **options), figure)
+    if not result["passed"]:  # printed as it would be, then one line and status 1
+        check_finite(result)
+        if args.json:
+            print(dumps(result))
+        else:
+            show_against(result)
+        raise RunError(f"--against aihwkit: {result['within']} / {result['rows_total']} rows "
+                       f"of preset {preset!r} within {result['tolerance']:.0%}, fewer than "
+                       f"the {result['required']:.0%} required")
+    return result
 
 
 def show_against(r: dict[str, Any]) -> None:
@@ -152,7 +164,8 @@ def show_against(r: dict[str, Any]) -> None:
     header = ["check", "quantity", "where", "project", "aihwkit", "diff", "within 10 %"]
     print("\n".join("  " + line for line in table(rows, header)))
     counts = ", ".join(f"{c} {n['within']} / {n['rows']}" for c, n in r["by_check"].items())
-    print(f"  {r['within']} / {r['rows_total']} rows within {r['tolerance']:.0%} ({counts})")
+    print(f"  {r['within']} / {r['rows_total']} rows within {r['tolerance']:.0%} ({counts}): "
+          f"{'passed' if r['passed'] else 'FAILED'} (at least {r['required']:.0%} required)")
     if r.get("aihwkit_preset"):
         print(f"  aihwkit parameters mapped: {', '.join(r['aihwkit_preset']['mapped'])}; "
               f"inert on a lone device: {', '.join(r['aihwkit_preset']['inert'])}")

@@ -24,7 +24,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from cml_edge.backends.base import SynapticArray, laid_out
-from cml_edge.backends.crossbar.codes import N_COUNTERS
+from cml_edge.backends.crossbar.codes import AUX_PLANES, N_COUNTERS
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
     NEW_FIELDS,
@@ -58,6 +58,10 @@ class CrossbarState(NamedTuple):
     bnd: np.ndarray  # (4, rows, cols) float64: bounds lo, hi of G+, then of G- (uS)
     wn: np.ndarray  # (2, rows, cols) float64: write-noise offsets of G+, G- (uS)
     rn: np.ndarray  # (2, rows, cols) float64: accumulated read-noise draws of G+, G- (uS)
+    aux: np.ndarray  # (2 AUX_PLANES, rows, cols) float64: per device (G+, then G-) its
+    # linear-step slopes up and down, reference (uS), decay scale and reset bias (uS)
+    # (codes.AUX_*; read only where the config draws them: gamma_*_dtod, reference_*,
+    # lifetime, reset_dtod)
     # work space (saved with the state, but no kernel reads what a call left: SCRATCH) ----
     xbuf: np.ndarray  # float64[max(rows, cols)]: a read's inputs, scaled and converted
     ybuf: np.ndarray  # float64[max(rows, cols)]: a read's analog sums
@@ -188,7 +192,7 @@ class CrossbarArray(SynapticArray):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected {shape}")
         for f, k in (("step", 4), ("nu", 2), ("age", 2), ("stuck", 2), ("nu_z", 2),
-                     ("bnd", 4), ("wn", 2), ("rn", 2)):
+                     ("bnd", 4), ("wn", 2), ("rn", 2), ("aux", 2 * AUX_PLANES)):
             if getattr(state, f).shape != (k, *state.Gp.shape):
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected {(k, *state.Gp.shape)}")
@@ -272,6 +276,7 @@ def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
         elapsed=np.zeros(1), rng=np.array([key, 0], dtype=np.uint64),
         nu_z=np.zeros((2, rows, cols)), bnd=_nominal_bounds(params, rows, cols),
         wn=np.zeros((2, rows, cols)), rn=np.zeros((2, rows, cols)),
+        aux=np.zeros((2 * AUX_PLANES, rows, cols)),
         counters=np.zeros(N_COUNTERS, np.int64), **_scratch(rows, cols),
     )
 
@@ -292,7 +297,7 @@ def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """A state saved before the calibrated-physics fields: the parameter record gains the
     new fields (from the completed options, with the saved w_max; the saved fields must
     agree), the new state arrays start at their neutral values (no bound spread, no noise
-    offsets) and the new counters at 0."""
+    offsets, no per-device extras) and the new counters at 0."""
     if "params" not in d or "__params__" not in d or "__options__" not in d:
         return d
     if "Gp" not in d or "counters" not in d or np.asarray(d["Gp"]).ndim != 2:
@@ -312,7 +317,7 @@ def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if any(getattr(record, k) != v for k, v in old.items()):
             raise InputError("crossbar parameters do not match the saved options")
         out.update(params=record_to_array(record), __params__=record_names(record))
-    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn")):
+    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn", "aux")):
         return d  # the current layout
     else:
         record = dict(zip(names, np.asarray(d["params"]).tolist()))
@@ -324,6 +329,7 @@ def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     out.setdefault("bnd", _nominal_bounds(record, rows, cols))
     out.setdefault("wn", np.zeros((2, rows, cols)))
     out.setdefault("rn", np.zeros((2, rows, cols)))
+    out.setdefault("aux", np.zeros((2 * AUX_PLANES, rows, cols)))
     if counters.ndim == 1 and counters.shape[0] < N_COUNTERS:
         out["counters"] = np.concatenate(
             [counters, np.zeros(N_COUNTERS - counters.shape[0], counters.dtype)])

@@ -18,7 +18,8 @@ measurements with the formulas (``tests/backends/crossbar/test_crossbar_physics.
   divided by sqrt 2;
 - ``pulses``: per conductance and direction, the mean and std of the change one pulse
   makes, counted positive in the direction asked (devices programmed noise-free to the
-  conductance, pair refresh off: the device, not the pair). A SET-only device cannot be
+  conductance, without a write-noise offset, pair refresh and decay off: the device and
+  its pulse, not the pair nor the mini-batch). A SET-only device cannot be
   pulsed down: its down steps are 0; ``hidden_*`` the same of the hidden state, G less its
   write-noise offset (the apparent step where the preset has no write noise);
 - ``pulses_to_full_range``: pulses that take the mean device from g_min to 90 % of the
@@ -104,7 +105,7 @@ def characterize(preset: str = "pcm", *, devices: int = 10_000, seed: int = 0,
         if not (math.isfinite(t) and t >= 0.0):
             raise InputError(f"time {t!r} is not allowed (allowed: seconds >= 0)")
     times = sorted(times)
-    steps = 2 * len(targets) + (2 if config.levels >= 2 else 0)
+    steps = 2 * len(targets) + (2 if pulses_to_characterize(config) else 0)
     done = 0
 
     def tick() -> None:
@@ -135,8 +136,9 @@ def characterize(preset: str = "pcm", *, devices: int = 10_000, seed: int = 0,
         tick()
     pulses: list[dict[str, Any]] = []
     full: dict[str, int | None] = {"up": None, "down": None}
-    if config.levels >= 2:
-        quiet = {"commit": "pulse", "refresh": False, "prog_noise": 0.0}
+    if pulses_to_characterize(config):
+        quiet = {"commit": "pulse", "refresh": False, "prog_noise": 0.0,
+                 "apply_write_noise_on_set": False, "lifetime": 0.0}
         for g in targets:
             for direction in ("up", "down"):
                 arr = _column(preset, fields, g, devices, seed, **quiet)
@@ -175,6 +177,12 @@ def characterize(preset: str = "pcm", *, devices: int = 10_000, seed: int = 0,
     }
 
 
+def pulses_to_characterize(config: Any) -> bool:
+    """Whether a device of ``config`` is pulsed: conductance levels, or a pulse's own
+    step on a continuous conductance (``pulse_step``)."""
+    return config.levels >= 2 or config.pulse_step > 0
+
+
 def time_text(t: float) -> str:
     """A time since programming in the unit that reads best: s, h or days."""
     if t < 3600:
@@ -183,8 +191,10 @@ def time_text(t: float) -> str:
 
 
 def pulses_text(full: dict[str, int | None]) -> str:
-    """``pulses_to_full_range`` in words: ``up 101, down never`` (None: not reached)."""
-    return ", ".join(f"{d} {'never' if full[d] is None else f'{full[d]:,}'}"
+    """``pulses_to_full_range`` in words: ``up 101, down not within 20,000 pulses`` (None:
+    not reached; a SET-only device, or one whose steps shrink to nothing before 90 %)."""
+    never = f"not within {MAX_PULSES:,} pulses"
+    return ", ".join(f"{d} {never if full[d] is None else f'{full[d]:,}'}"
                      for d in ("up", "down"))
 
 

@@ -15,6 +15,7 @@ from cml_edge.backends.crossbar.config import (
     MAPPINGS,
     PAIR_GRIDS,
     REFRESH_WRITES,
+    SCALE_SPREADS,
     SET_NOISES,
     STEP_MODELS,
     UPDATES,
@@ -30,9 +31,12 @@ STEP_BOUNDS, STEP_LINEAR, STEP_SOFT, STEP_EXP, STEP_POW = (
     STEP_MODELS.index(m) for m in ("bounds", "linear", "soft", "exp", "pow"))
 C2C_MULT, C2C_ADD = C2C_MODELS.index("mult"), C2C_MODELS.index("add")
 COMP_PERIPHERY = COMPENSATION_READS.index("periphery")
-BOUND_SYMMETRIC = BOUND_SPREADS.index("symmetric")
+BOUND_INWARD, BOUND_SYMMETRIC, BOUND_AIHWKIT = (
+    BOUND_SPREADS.index(b) for b in ("inward", "symmetric", "aihwkit"))
+SPREAD_MULT, SPREAD_LOGNORMAL = SCALE_SPREADS.index("mult"), SCALE_SPREADS.index("lognormal")
 SET_GAUSS = SET_NOISES.index("gauss")
-REFRESH_OPEN = REFRESH_WRITES.index("open-loop")
+REFRESH_VERIFY, REFRESH_OPEN, REFRESH_AIHWKIT = (
+    REFRESH_WRITES.index(r) for r in ("verify", "open-loop", "aihwkit"))
 PAIR_GRID = PAIR_GRIDS.index("pair")
 
 # counter indices (names in CrossbarArray.counter_names)
@@ -41,6 +45,9 @@ OUTER_UPDATES, ACC_WRITES, LINE_PULSES, COINCIDENCES, DEVICE_PULSES = 6, 7, 8, 9
 DEVICES_WRITTEN, COMMITS, RNG_DRAWS = 11, 12, 13
 REFRESHES, REFRESH_PULSES, CALIBRATION_READS, BM_REREADS, PULSES_CAPPED = 14, 15, 16, 17, 18
 N_COUNTERS = 19
+
+# the planes of the state's ``aux`` per device d (G+ 0, G- 1): aux[AUX_PLANES d + k]
+AUX_GAMMA_UP, AUX_GAMMA_DOWN, AUX_REF, AUX_DECAY, AUX_RESET, AUX_PLANES = 0, 1, 2, 3, 4, 5
 
 # stuck codes (the state's ``stuck``)
 OK, STUCK_LOW, STUCK_HIGH = 0, 1, 2

@@ -70,6 +70,14 @@ aihwkit, Sandia CrossSim and the papers they implement):
     every conductance, no accumulated read noise, no refresh. Their ``levels`` read
     aihwkit's dw_min as 201 (PCM) and 1001 (ReRAM) evenly spaced levels.
 
+``aihwkit:NAME``
+    Each of aihwkit 1.1.0's eleven presets (its ten preset devices and
+    ``PCMPresetUnitCell``) with aihwkit's own parameters, read from the committed snapshot
+    ``cml_edge/data/aihwkit_presets.json`` and mapped onto these fields, aihwkit's
+    behaviours switched on where it differs (``bound_spread``, ``scale_spread``,
+    ``pulse_step``, ``reference_*``, ``lifetime``, ``refresh_write`` aihwkit...):
+    :mod:`cml_edge.backends.crossbar.aihwkit.presets`.
+
 The device presets use the per-walk accumulate-then-pulse commit and the pulsed update,
 and the same weight scale (w_max_q, w_max_k automatic = max|W0|; w_max_v = 0.02,
 see :class:`DeviceConfig`). Stuck devices are 0 in the presets (aihwkit keeps its
@@ -79,6 +87,7 @@ sweep them with ``--set stuck_low=...``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -101,9 +110,10 @@ MAPPINGS = ("two-sided", "one-sided")
 STEP_MODELS = ("bounds", "linear", "soft", "exp", "pow")
 C2C_MODELS = ("mult", "add", "complex")
 COMPENSATION_READS = ("ideal", "periphery")
-BOUND_SPREADS = ("inward", "symmetric")
+BOUND_SPREADS = ("inward", "symmetric", "aihwkit")
+SCALE_SPREADS = ("mult", "add", "lognormal")
 SET_NOISES = ("lognormal", "gauss")
-REFRESH_WRITES = ("verify", "open-loop")
+REFRESH_WRITES = ("verify", "open-loop", "aihwkit")
 PAIR_GRIDS = ("device", "pair")
 DEFAULT_PRESET = "pcm"
 
@@ -134,7 +144,8 @@ class DeviceConfig:
                          help="crossbar conductance levels per device (>= 2; 0 = continuous)",
                          lo=0, hi=4096, why=LEVELS)
     """Programmable states per device, evenly spaced on [g_min, g_max]; 0 = continuous.
-    One pulse moves a device by one level: dw_min = 2 w_max / (levels - 1)."""
+    One pulse moves a device by one level: dw_min = 2 w_max / (levels - 1) (or by
+    ``pulse_step`` on a continuous conductance)."""
     w_headroom: float = option(1.0, kernel=False,
                                lo=0.01, hi=100.0, why="a multiple of the matrix's max|W|")
     """Automatic scale: w_max = w_headroom x max|W| of the matrix programmed (aihwkit maps
@@ -320,9 +331,9 @@ class DeviceConfig:
     c2c_slope: float = option(0.0, lo=0.0, hi=10.0, why="a std per unit |G - G0| (aihwkit 0.108)")
     """``complex`` c2c: term proportional to |G - G0| (aihwkit dw_min_std_slope 0.108)."""
     write_noise: float = option(0.0, lo=0.0, hi=1000.0, why="a std in units of dG (ReRAM 56)")
-    """Write noise (aihwkit ``write_noise_std``), std in units of dG: a pulsed device reads
-    as its hidden state plus N(0, (write_noise dG)^2), redrawn at each pulse (the hidden
-    state is what the pulses move)."""
+    """Write noise (aihwkit ``write_noise_std``), std in units of a pulse's step dG (or
+    ``pulse_step``): a pulsed device reads as its hidden state plus N(0, (write_noise
+    dG)^2), redrawn at each pulse (the hidden state is what the pulses move)."""
     bound_dtod_up: float = option(0.0, lo=0.0, hi=1.0, why=REL_STD)
     """Device-to-device spread of the upper bound: hi = G0 + (g_max - G0)(1 + d z),
     relative std (aihwkit ``w_max_dtod``), clipped to [G0, g_max]; drawn per device
@@ -339,7 +350,65 @@ class DeviceConfig:
     (g_max - g_min), which stays every device's zero (``inward``: G0 = lo + step_center
     (hi - lo) of the device's own bounds). The spread of the bounds with that of the
     scales (``dw_min_dtod``, ``up_down_dtod``) spreads the soft-bounds slopes
-    s / (hi - G0) as aihwkit's does."""
+    s / (hi - G0) as aihwkit's does. ``aihwkit``: ``PulsedRPUDevice::populate`` itself,
+    for a device whose weights are not conductances: hi = G0 + |u|, lo = G0 - |l| with
+    u = (g_max - G0)(1 + d z), l = (G0 - g_min)(1 + d z), the two swapped first where
+    G0 - l > G0 + u (``enforce_consistency``), no floor at 1e-3 of the range nor at
+    0 uS."""
+    scale_spread: str = option("mult", choices=SCALE_SPREADS)
+    """How ``dw_min_dtod`` and ``up_down_dtod`` spread a device's up and down step scales
+    (two normals z1, z2 per device either way): ``mult`` (earlier releases): s = max(1 +
+    dw_min_dtod z1, 0), a = up_down + up_down_dtod z2, up max(s (1 + a), 0), down
+    max(s (1 - a), 0); ``add`` (aihwkit ``PulsedRPUDevice::populate`` with
+    ``enforce_consistency``): gain = 1 + dw_min_dtod z1, r = up_down_dtod z2, up |gain + r
+    + min(up_down, 0)|, down |gain - r - max(up_down, 0)| (aihwkit's ``up_down`` shrinks
+    one direction only); ``lognormal`` (aihwkit ``dw_min_dtod_log_normal``): the same with
+    gain = exp(dw_min_dtod z1)."""
+    pulse_step: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """One pulse's nominal conductance step, a fraction of g_max - g_min (aihwkit
+    ``dw_min`` / (``w_max`` - ``w_min``)); 0 = one level, 1 / (levels - 1) (earlier
+    releases). Set, a pulse moves a device by this step whether or not it divides the
+    range (``ReRamArrayHfO2PresetDevice``: 0.2311, 4.3 steps; ``IdealizedPresetDevice``:
+    1e-4, 10,000 steps), and ``levels`` only grid what is written exactly (programming,
+    write-verify): with ``levels`` 0, as aihwkit's ``set_weights``, nothing is."""
+    gamma_up_dtod: float = option(0.0, lo=0.0, hi=10.0, why="a std of the slope gamma_up")
+    """``linear`` step: device-to-device spread of ``gamma_up``, each device's own
+    |gamma_up + gamma_up_dtod z| (aihwkit ``LinearStepDevice.gamma_up_dtod``, the slope
+    forced positive as its ``allow_increasing`` False does); drawn per device at
+    programming."""
+    gamma_down_dtod: float = option(0.0, lo=0.0, hi=10.0, why="a std of the slope gamma_down")
+    """The same for ``gamma_down`` (aihwkit ``gamma_down_dtod``)."""
+    mean_bound_reference: bool = False
+    """``linear`` step: the slope is referred to the nominal bounds, 1 - gamma (G - G0) /
+    (g_max - G0) up and 1 - gamma (G - G0) / (g_min - G0) down, whatever the device's own
+    bounds (aihwkit ``LinearStepDevice.mean_bound_reference``); off (earlier releases):
+    to the device's own bounds hi / lo."""
+    reference_mean: float = option(0.0, lo=-1.0, hi=1.0, why=FRACTION)
+    """A reference device subtracted from each device (aihwkit
+    ``SoftBoundsReferenceDevice``): a pulse moves the device's internal state G + ref,
+    clipped to its bounds, and the device reads G; ref = (reference_mean +
+    reference_std z) (g_max - g_min), z fixed per device (aihwkit ``reference_mean``, in
+    weight units: divided by w_max - w_min here)."""
+    reference_std: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """The reference's device-to-device std, a fraction of the range (aihwkit
+    ``reference_std``)."""
+    subtract_symmetry_point: bool = False
+    """The reference also holds the device's symmetry point, where its up and down steps
+    are equal: ref += (s_up - s_down) / (s_up / (hi - G0) - s_down / (lo - G0)) for a
+    device whose bounds straddle G0 (aihwkit ``subtract_symmetry_point``, soft bounds)."""
+    lifetime: float = option(0.0, lo=0.0, hi=1e12, why="mini-batches (aihwkit 1e6)")
+    """Decay (aihwkit ``lifetime``, in mini-batches): after every in-place update and
+    every commit (one mini-batch), each device's hidden state moves toward its weight zero,
+    h <- G0 + (h - G0) (1 - 1 / t), t = lifetime (1 + lifetime_dtod z) fixed per device
+    (0 decay scale where t <= 1), clipped to its bounds, and a device with write noise
+    reads a fresh offset (aihwkit ``decayWeights``, then ``applyUpdateWriteNoise``);
+    0 = none."""
+    lifetime_dtod: float = option(0.0, lo=0.0, hi=10.0, why=REL_STD)
+    """Device-to-device spread of ``lifetime`` (aihwkit ``lifetime_dtod``)."""
+    apply_write_noise_on_set: bool = False
+    """Programming draws the write-noise offset too (aihwkit ``apply_write_noise_on_set``):
+    a device holds its target and reads it plus N(0, (write_noise dG)^2) until its next
+    pulse; off (earlier releases): it reads its target."""
     write_noise_clip: bool = True
     """Whether a device read through its write-noise offset is clipped to [g_min, g_max]
     (earlier releases) or not (aihwkit: w_apparent = w + write_noise_std dw_min z,
@@ -361,10 +430,33 @@ class DeviceConfig:
     that read larger by one stochastic pulse train pair, as aihwkit's refresh update
     does for a pair alone in its column: BL = min(ceil(D / dG), bl_max) slots, each train
     firing with probability min(sqrt(D / (dG BL)), 1), one pulse per coincidence, no
-    verify. aihwkit's reset bias (0.01 +- 0.02 of w_max) is not modelled."""
+    verify, without aihwkit's reset bias (0.01 +- 0.02 of w_max). ``aihwkit``
+    (``refreshWeights`` itself): after every update and every commit, column by column,
+    each device read as G0 plus its read G - G0 + N(0, (refresh_read_noise (g_max -
+    g_min))^2) rounded to ``refresh_read_step``; the column's pairs whose reads cross the
+    thresholds have their G+ devices RESET, then their G- devices (:attr:`reset`); then
+    the read differences D_i where G+ read larger are written onto G+ by one pulsed
+    update of the column, then those where G- did onto G-: aihwkit's update management
+    at its weight granularity g = pulse_gain dP (``refresh_update``: BL = min(ceil(k),
+    bl_max), k = max D / g, one column train of probability sqrt(D' / (g BL)) and per pair
+    a row train of probability D_i / sqrt(D' g BL), D' = max D min(1, bl_max / k)), one
+    SET pulse per coincidence, no verify."""
     refresh_read_noise: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
-    """``open-loop`` refresh: std of the read of each device, fraction of the range
-    (aihwkit ``refresh_forward`` out_noise 0.06 of a 0..2 device: 0.03)."""
+    """``open-loop`` and ``aihwkit`` refresh: std of the read of each device, fraction of
+    the range (aihwkit ``refresh_forward`` out_noise: 0.06 of a 0..2 device is 0.03)."""
+    refresh_read_step: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """``aihwkit`` refresh: the refresh read's ADC step, a fraction of the range (aihwkit
+    ``refresh_forward`` out_res 2 out_bound / (w_max - w_min): 1/510 x 40 / 2 = 0.039 for
+    ``PCMPresetUnitCell``); 0 = exact."""
+    reset: float = option(0.0, lo=-1.0, hi=1.0, why=FRACTION)
+    """``aihwkit`` refresh: a RESET leaves a device at G0 + b + reset_std (g_max - g_min)
+    z (z fresh), clipped to its bounds; b = (reset + reset_dtod z') (g_max - g_min) its
+    reset bias, z' fixed per device (aihwkit ``PulsedDevice.reset``, ``reset_dtod``,
+    ``reset_std``, in weight units there: divided by w_max - w_min here)."""
+    reset_dtod: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """The reset bias's device-to-device std (aihwkit ``reset_dtod``)."""
+    reset_std: float = option(0.0, lo=0.0, hi=1.0, why=FRACTION)
+    """A RESET's cycle-to-cycle std (aihwkit ``reset_std``)."""
     read_noise_pcm: float = option(0.0, lo=0.0, hi=1.0, why="a std per unit of the weighted input")
     """Per-read weight noise of the PCM_READ form (aihwkit ``w_noise`` with
     ``w_noise_type=PCMRead``): each normalised output gets N(0, read_noise_pcm^2
@@ -445,9 +537,10 @@ class DeviceConfig:
 # the kernels' parameter record: the numeric fields, then what an array derives --------
 CrossbarParams = kernel_record(DeviceConfig, "CrossbarParams", __name__, derived={
     "dG": float,  # level spacing (g_max - g_min) / (levels - 1); 0 when continuous
+    "dP": float,  # a pulse's nominal step: pulse_step (g_max - g_min), else dG
     "w_max": float,  # this array's weight of a full conductance swing
     "g_per_w": float,  # (g_max - g_min) / w_max
-    "dw_min": float,  # nominal weight step of one pulse, 2 dG w_max / (g_max - g_min)
+    "dw_min": float,  # nominal weight step of one pulse, 2 dP w_max / (g_max - g_min)
     "pulse_cap": int,  # most pulses a commit sends a pair (PULSE_CAP_SWEEPS (levels - 1))
     "dac_step": float,  # input step of the DAC on [-1, 1]; 0 = ideal
     "adc_step": float,  # output step of the ADC on [-adc_bound, adc_bound]; 0 = ideal
@@ -473,13 +566,15 @@ def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     """The :class:`CrossbarParams` of an array of scale ``w_max`` on ``config``."""
     grange = config.g_max - config.g_min
     dG = grange / (config.levels - 1) if config.levels >= 2 else 0.0
-    # a pulse moves both devices of a two-sided pair (2 dG of G+ - G-), one of a SET-only
+    dP = config.pulse_step * grange if config.pulse_step > 0 else dG
+    steps = math.ceil(1.0 / config.pulse_step) if config.pulse_step > 0 else config.levels - 1
+    # a pulse moves both devices of a two-sided pair (2 dP of G+ - G-), one of a SET-only
     # pair; the controller counts it as pulse_gain times that (1: exactly 2.0, as before)
     devices = 1.0 if config.set_only else 2.0
     return build_record(
-        CrossbarParams, config, dG=dG, w_max=w_max, g_per_w=grange / w_max,
-        dw_min=(devices * config.pulse_gain) * dG * w_max / grange,
-        pulse_cap=PULSE_CAP_SWEEPS * max(config.levels - 1, 0),
+        CrossbarParams, config, dG=dG, dP=dP, w_max=w_max, g_per_w=grange / w_max,
+        dw_min=(devices * config.pulse_gain) * dP * w_max / grange,
+        pulse_cap=PULSE_CAP_SWEEPS * max(steps, 0),
         dac_step=_step(1.0, config.dac_bits), adc_step=_step(config.adc_bound, config.adc_bits))
 
 
@@ -491,7 +586,9 @@ _NONNEG = ("dw_min_dtod", "dw_min_std", "up_down_dtod", "prog_noise", "read_nois
            "out_noise", "drift_nu", "drift_nu_std", "w_max_q", "w_max_k", "w_max_v",
            "c2c_add", "c2c_slope", "write_noise", "bound_dtod_up", "bound_dtod_down",
            "read_noise_pcm", "rn1f", "rn1f_q0", "rn1f_qmax", "gamma_up", "gamma_down",
-           "nu_lo", "nu_hi", "nu_slo", "nu_shi", "refresh_read_noise")
+           "nu_lo", "nu_hi", "nu_slo", "nu_shi", "refresh_read_noise", "pulse_step",
+           "gamma_up_dtod", "gamma_down_dtod", "reference_std", "lifetime", "lifetime_dtod",
+           "refresh_read_step", "reset_dtod", "reset_std")
 NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower",
               "pulse_gain", "step_model", "step_center", "gamma_up", "gamma_down", "exp_a",
               "exp_b", "exp_a_up", "exp_a_down", "exp_gamma_up", "exp_gamma_down",
@@ -500,7 +597,11 @@ NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower"
               "rn1f_qmax", "rn1f_t_read", "drift_nu_g", "nu_a", "nu_b", "nu_lo", "nu_hi",
               "nu_sa", "nu_sb", "nu_slo", "nu_shi", "compensation_read", "bound_management",
               "bm_passes", "pair_grid", "bound_spread", "write_noise_clip", "set_noise",
-              "refresh_write", "refresh_read_noise")
+              "refresh_write", "refresh_read_noise", "scale_spread", "pulse_step",
+              "gamma_up_dtod", "gamma_down_dtod", "mean_bound_reference", "reference_mean",
+              "reference_std", "subtract_symmetry_point", "lifetime", "lifetime_dtod",
+              "apply_write_noise_on_set", "refresh_read_step", "reset", "reset_dtod",
+              "reset_std")
 """The calibrated-physics fields, added after the first releases. A state saved before
 them has none in its options: it restores with their defaults (every one off), not with
 its preset's present values."""
@@ -518,10 +619,10 @@ def _validate(c: DeviceConfig) -> None:
     if c.levels < 0 or c.levels == 1:
         raise InputError(f"crossbar levels {c.levels!r} is not allowed (allowed: an integer "
                          ">= 2, or 0 for a continuous conductance)")
-    if c.levels < 2 and (c.update == "pulsed" or c.commit == "pulse"):
+    if c.levels < 2 and c.pulse_step == 0 and (c.update == "pulsed" or c.commit == "pulse"):
         raise InputError(f"crossbar levels {c.levels!r} is not allowed with update "
                          f"{c.update!r} / commit {c.commit!r} (pulses step one level: "
-                         "allowed levels >= 2)")
+                         "allowed levels >= 2, or pulse_step > 0)")
     if not 1 <= c.bl_max <= 31:
         raise InputError(f"crossbar bl_max {c.bl_max!r} is not allowed (allowed: 1..31)")
     for name in ("dac_bits", "adc_bits"):
@@ -582,9 +683,10 @@ _RERAM_SYMMETRIC = dict(
     prog_c1=-0.009107 * 225.0, prog_c2=0.0, prog_gref=225.0, read_noise=0.01)
 
 class _Presets(dict):
-    """The named presets, and ``aihwkit:NAME``: one of IBM aihwkit's preset devices, its
-    parameters read in aihwkit's environment and mapped onto the fields
-    (:mod:`cml_edge.backends.crossbar.aihwkit.presets`; unmodelled parameters refused)."""
+    """The named presets, and ``aihwkit:NAME``: one of IBM aihwkit 1.1.0's preset devices
+    and unit cells, its parameters read from the committed snapshot and mapped onto the
+    fields (:mod:`cml_edge.backends.crossbar.aihwkit.presets`; unmodelled parameters
+    refused)."""
 
     def __contains__(self, name: object) -> bool:
         return super().__contains__(name) or _is_aihwkit(name)
@@ -656,7 +758,8 @@ the idle ``drift_time`` applies to every device)."""
 RANDOM_FIELDS = ("stuck_low", "stuck_high", "dw_min_dtod", "up_down_dtod", "bound_dtod_up",
                  "bound_dtod_down", "drift_nu_std", "prog_noise", "dw_min_std", "write_noise",
                  "read_noise", "out_noise", "read_noise_pcm", "rn1f", "c2c_add", "c2c_slope",
-                 "refresh_read_noise")
+                 "refresh_read_noise", "gamma_up_dtod", "gamma_down_dtod", "reference_std",
+                 "lifetime_dtod", "reset_dtod", "reset_std")
 """The fields whose devices draw from the array's stream when nonzero: manufacture
 (stuck devices, device-to-device spreads, drift exponents, programming noise) and
 cycle to cycle (pulse, write and read noise)."""

@@ -31,7 +31,15 @@ from cml_edge.backends.crossbar.codes import (
     ADC_CONVERSIONS,
     ADC_SATURATIONS,
     ANALOG_MACS,
+    AUX_DECAY,
+    AUX_GAMMA_DOWN,
+    AUX_GAMMA_UP,
+    AUX_PLANES,
+    AUX_REF,
+    AUX_RESET,
     BM_REREADS,
+    BOUND_AIHWKIT,
+    BOUND_INWARD,
     BOUND_SYMMETRIC,
     BOUNDS_SOFT,
     C2C_ADD,
@@ -51,12 +59,16 @@ from cml_edge.backends.crossbar.codes import (
     OUTER_UPDATES,
     PAIR_GRID,
     PULSES_CAPPED,
+    REFRESH_AIHWKIT,
     REFRESH_OPEN,
     REFRESH_PULSES,
+    REFRESH_VERIFY,
     REFRESHES,
     RMATVECS,
     RNG_DRAWS,
     SET_GAUSS,
+    SPREAD_LOGNORMAL,
+    SPREAD_MULT,
     STEP_BOUNDS,
     STEP_EXP,
     STEP_LINEAR,
@@ -220,26 +232,29 @@ def sigmoid(state: State, z: np.ndarray) -> np.ndarray:
 def weight_zero(P: Any, lo: float, hi: float) -> float:
     """G0: lo + step_center (hi - lo) of the device's own bounds, or the nominal
     g_min + step_center (g_max - g_min) its bounds spread around (``bound_spread``)."""
-    if P.bound_spread == BOUND_SYMMETRIC:
+    if P.bound_spread != BOUND_INWARD:
         return P.g_min + P.step_center * (P.g_max - P.g_min)
     return lo + P.step_center * (hi - lo)
 
 
-def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
+def step_factor(P: Any, g: float, up: bool, lo: float, hi: float,
+                gu: float, gd: float) -> float:
     """The mean step of one pulse at conductance g, in units of the device's nominal step
-    (``step_model``; lo / hi the device's bounds, G0 = lo + step_center (hi - lo))."""
+    (``step_model``; lo / hi the device's bounds, G0 its weight zero, gu / gd its
+    ``linear`` slopes, referred to the nominal bounds with ``mean_bound_reference``)."""
     span = hi - lo
     if not span > 0.0:
         return 0.0
     g0 = weight_zero(P, lo, hi)
     m = P.step_model
     if m == STEP_LINEAR:  # aihwkit LinearStep
-        f = 1.0 - P.gamma_up * (g - g0) / (hi - g0) if up else \
-            1.0 - P.gamma_down * (g - g0) / (lo - g0)
+        ref_hi, ref_lo = (P.g_max, P.g_min) if P.mean_bound_reference else (hi, lo)
+        f = 1.0 - gu * (g - g0) / (ref_hi - g0) if up else \
+            1.0 - gd * (g - g0) / (ref_lo - g0)
     elif m == STEP_SOFT:  # SoftBounds: zero at each bound
         f = 1.0 - 1.0 * (g - g0) / (hi - g0) if up else 1.0 - 1.0 * (g - g0) / (lo - g0)
     elif m == STEP_EXP:  # ExpStep
-        if P.bound_spread == BOUND_SYMMETRIC:
+        if P.bound_spread != BOUND_INWARD:
             z = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
         else:
             z = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
@@ -253,13 +268,17 @@ def step_factor(P: Any, g: float, up: bool, lo: float, hi: float) -> float:
             2.0 * (g - P.g_min) / (P.g_max - P.g_min)
     else:
         f = 1.0
+    if m == STEP_SOFT and has_reference(P):  # a reference device's internal state past
+        return f  # its bound steps back toward it (aihwkit SoftBoundsReference)
     return max(f, 0.0)
 
 
-def pulse(P: Any, g: float, up: bool, s: float, z: float, lo: float, hi: float) -> float:
-    """A device at g after one pulse of nominal size s dG with cycle-to-cycle normal z."""
+def pulse(P: Any, g: float, up: bool, s: float, z: float, lo: float, hi: float,
+          gu: float = 0.0, gd: float = 0.0) -> float:
+    """A device at g after one pulse of nominal size s dG (``pulse_step``: dP) with
+    cycle-to-cycle normal z (gu / gd its ``linear`` slopes)."""
     if P.step_model == STEP_BOUNDS:  # the model of earlier releases: multiplicative c2c
-        d = P.dG * s * (1.0 + P.dw_min_std * z)
+        d = P.dP * s * (1.0 + P.dw_min_std * z)
         if P.bounds == BOUNDS_SOFT:
             d *= 2.0 * (P.g_max - g) / (P.g_max - P.g_min) if up else \
                 2.0 * (g - P.g_min) / (P.g_max - P.g_min)
@@ -267,11 +286,11 @@ def pulse(P: Any, g: float, up: bool, s: float, z: float, lo: float, hi: float) 
             d = 0.0
         g = g + d if up else g - d
         return min(max(g, P.g_min), P.g_max)
-    step = P.dG * s * step_factor(P, g, up, lo, hi)
+    step = P.dP * s * step_factor(P, g, up, lo, hi, gu, gd)
     if P.c2c == C2C_MULT:
         sd = P.dw_min_std * step
     elif P.c2c == C2C_ADD:
-        sd = P.dw_min_std * P.dG * s
+        sd = P.dw_min_std * P.dP * s
     else:  # complex
         g0 = weight_zero(P, lo, hi)
         sd = P.dw_min_std * (step + P.c2c_add * (P.g_max - P.g_min) + P.c2c_slope * abs(g - g0))
@@ -345,6 +364,38 @@ def device(state: State, d: int) -> np.ndarray:
     return state.Gp if d == 0 else state.Gm
 
 
+def has_reference(P: Any) -> bool:
+    """Whether each device has a reference subtracted (``reference_*``)."""
+    return P.reference_mean != 0.0 or P.reference_std > 0.0 or bool(P.subtract_symmetry_point)
+
+
+def pulse_device(state: State, d: int, i: int, j: int, up: bool, z: float, w: float) -> None:
+    """One pulse on device d of pair (i, j) (not stuck), normals z (c2c) and w (write
+    noise): it moves the hidden state G - wn, plus the reference if any (the internal
+    state aihwkit's reference device steps), and a fresh offset is read on top."""
+    P = state.params
+    G = device(state, d)
+    s = state.step[2 * d, i, j] if up else state.step[2 * d + 1, i, j]
+    lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
+    k = AUX_PLANES * d
+    gu, gd = P.gamma_up, P.gamma_down
+    if P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0:
+        gu, gd = state.aux[k + AUX_GAMMA_UP, i, j], state.aux[k + AUX_GAMMA_DOWN, i, j]
+    h = G[i, j] - state.wn[d, i, j] if P.write_noise > 0.0 else G[i, j]
+    if P.step_model != STEP_BOUNDS and has_reference(P):
+        ref = state.aux[k + AUX_REF, i, j]
+        h = pulse(P, h + ref, up, s, z, lo, hi, gu, gd) - ref
+    else:
+        h = pulse(P, h, up, s, z, lo, hi, gu, gd)
+    if P.write_noise > 0.0:
+        G[i, j] = h + P.write_noise * P.dP * w
+        if P.write_noise_clip:
+            G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
+        state.wn[d, i, j] = G[i, j] - h
+    else:
+        G[i, j] = h
+
+
 def pulse_pair(state: State, i: int, j: int, n: int, positive: bool, rng: Stream) -> None:
     """n pulses on pair (i, j), raising the weight if ``positive``: a two-sided pair moves
     G+ one way and G- the other per pulse, a SET-only pair potentiates G+ (or G-) alone.
@@ -357,22 +408,11 @@ def pulse_pair(state: State, i: int, j: int, n: int, positive: bool, rng: Stream
             up = True if P.set_only else (positive if d == 0 else not positive)
             z = rng.normal() if P.dw_min_std != 0.0 else 0.0
             w = rng.normal() if P.write_noise > 0.0 else 0.0
-            if state.stuck[d, i, j] != OK:
-                continue
-            G = device(state, d)
-            s = state.step[2 * d, i, j] if up else state.step[2 * d + 1, i, j]
-            lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
-            if P.write_noise > 0.0:  # the pulse moves the hidden state, read with an offset
-                h = pulse(P, G[i, j] - state.wn[d, i, j], up, s, z, lo, hi)
-                G[i, j] = h + P.write_noise * P.dG * w
-                if P.write_noise_clip:
-                    G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
-                state.wn[d, i, j] = G[i, j] - h
-            else:
-                G[i, j] = pulse(P, G[i, j], up, s, z, lo, hi)
+            if state.stuck[d, i, j] == OK:
+                pulse_device(state, d, i, j, up, z, w)
     for d in devices:
         mark_written(state, d, i, j, device(state, d)[i, j])
-    if P.refresh and P.refresh_write != REFRESH_OPEN:
+    if P.refresh and P.refresh_write == REFRESH_VERIFY:
         refresh_pair(state, i, j, rng)
 
 
@@ -431,46 +471,138 @@ def refresh_sweep(state: State, rng: Stream) -> None:
                 if state.stuck[d, i, j] == OK:
                     device(state, d)[i, j] = P.g_min
                     state.wn[d, i, j] = 0.0
-            bl = max(1, min(int(math.ceil(diff / P.dG)), P.bl_max))
-            p = min(math.sqrt(diff / (P.dG * bl)), 1.0)
+            bl = max(1, min(int(math.ceil(diff / P.dP)), P.bl_max))
+            p = min(math.sqrt(diff / (P.dP * bl)), 1.0)
             trains = [[rng.uniform() < p for _ in range(bl)] if p > 0.0 else [False] * bl
                       for _ in range(2)]
             n = sum(a and b for a, b in zip(*trains))
             for _ in range(n):
                 z = rng.normal() if P.dw_min_std != 0.0 else 0.0
                 w = rng.normal() if P.write_noise > 0.0 else 0.0
-                if state.stuck[big, i, j] != OK:
-                    continue
-                G = device(state, big)
-                s = state.step[2 * big, i, j]
-                lo, hi = state.bnd[2 * big, i, j], state.bnd[2 * big + 1, i, j]
-                if P.write_noise > 0.0:
-                    h = pulse(P, G[i, j] - state.wn[big, i, j], True, s, z, lo, hi)
-                    G[i, j] = h + P.write_noise * P.dG * w
-                    if P.write_noise_clip:
-                        G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
-                    state.wn[big, i, j] = G[i, j] - h
-                else:
-                    G[i, j] = pulse(P, G[i, j], True, s, z, lo, hi)
+                if state.stuck[big, i, j] == OK:
+                    pulse_device(state, big, i, j, True, z, w)
             for d in range(2):
                 mark_written(state, d, i, j, device(state, d)[i, j])
             state.counters[REFRESHES] += 1
             state.counters[REFRESH_PULSES] += 2 + n
 
 
+def refresh_read(P: Any, G: float, z: float) -> float:
+    """The ``aihwkit`` refresh's read: G0 plus (G - G0 + noise) rounded to the read step."""
+    v = G + P.refresh_read_noise * (P.g_max - P.g_min) * z
+    q = P.refresh_read_step * (P.g_max - P.g_min)
+    if q > 0.0:
+        g0 = P.g_min + P.step_center * (P.g_max - P.g_min)
+        v = g0 + math.floor((v - g0) / q + 0.5) * q
+    return v
+
+
+def refresh_columns(state: State, rng: Stream) -> None:
+    """The ``aihwkit`` refresh (aihwkit ``OneSidedRPUDevice::refreshWeights``), column by
+    column: each pair near the thresholds read (G+, G-); the crossing pairs' G+ RESET to
+    G0 + reset bias + reset_std z, then their G-; then the read differences written by one
+    pulsed update of the column per side, at aihwkit's weight granularity with its update
+    management (config.py, ``refresh_write``)."""
+    P = state.params
+    grange = P.g_max - P.g_min
+    sd, q = P.refresh_read_noise * grange, P.refresh_read_step * grange
+    margin = REFRESH_READ_SIGMAS * sd + q
+    gran = P.pulse_gain * P.dP
+    rows, cols = state.Gp.shape
+    for j in range(cols):
+        flag, diff = {}, {}
+        for i in range(rows):
+            gp, gm = state.Gp[i, j], state.Gm[i, j]
+            if not (max(gp, gm) > P.g_min + P.refresh_upper * grange - margin
+                    and min(gp, gm) > P.g_min + P.refresh_lower * grange - margin):
+                continue
+            rp = refresh_read(P, gp, rng.normal())
+            rm = refresh_read(P, gm, rng.normal())
+            up_, um = (rp - P.g_min) / grange, (rm - P.g_min) / grange
+            if max(up_, um) > P.refresh_upper and min(up_, um) > P.refresh_lower:
+                flag[i], diff[i] = (0 if rp > rm else 1), abs(rp - rm)
+        for d in range(2):  # RESET: G+ of each crossing pair, then G-
+            for i in flag:
+                z = rng.normal() if P.reset_std > 0.0 else 0.0
+                if state.stuck[d, i, j] != OK:
+                    continue
+                lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
+                b = state.aux[AUX_PLANES * d + AUX_RESET, i, j] if P.reset_dtod > 0.0 else \
+                    P.reset * grange
+                device(state, d)[i, j] = min(max(weight_zero(P, lo, hi) + b
+                                                 + P.reset_std * grange * z, lo), hi)
+                state.wn[d, i, j] = 0.0
+        for d in range(2):  # the write onto G+, then onto G-
+            mine = [i for i in flag if flag[i] == d]
+            dmax = max((diff[i] for i in mine), default=0.0)
+            if not dmax > 0.0:
+                continue
+            k = dmax / gran
+            bl = max(1, min(int(math.ceil(k)), P.bl_max))
+            dval = dmax * P.bl_max / k if k > P.bl_max else dmax
+
+            def train(p: float, bl: int = bl) -> list[bool]:
+                return [rng.uniform() < min(p, 1.0) for _ in range(bl)] if p != 0.0 else \
+                    [False] * bl
+
+            column = train(math.sqrt(dval / (gran * bl)))
+            for i in mine:
+                row = train(diff[i] * (1.0 / math.sqrt(dval * gran * bl)))
+                n = sum(a and b for a, b in zip(column, row))
+                for _ in range(n):
+                    z = rng.normal() if P.dw_min_std != 0.0 else 0.0
+                    w = rng.normal() if P.write_noise > 0.0 else 0.0
+                    if state.stuck[d, i, j] == OK:
+                        pulse_device(state, d, i, j, True, z, w)
+                state.counters[REFRESH_PULSES] += n
+        for i in flag:
+            for d in range(2):
+                mark_written(state, d, i, j, device(state, d)[i, j])
+            state.counters[REFRESHES] += 1
+            state.counters[REFRESH_PULSES] += 2
+
+
 def set_pulses(P: Any, target: float) -> int:
     """SET pulses the mean device (s = 1, no noise, nominal bounds) needs from g_min to
     ``target`` (at most 100,000)."""
-    if not P.dG > 0.0:
+    if not P.dP > 0.0:
         return 0
     g, n = P.g_min, 0
     while g < target and n < 100000:
-        g2 = min(g + P.dG * step_factor(P, g, True, P.g_min, P.g_max), P.g_max)
+        g2 = min(g + P.dP * step_factor(P, g, True, P.g_min, P.g_max, P.gamma_up, P.gamma_down),
+                 P.g_max)
         n += 1
         if not g2 > g:
             break
         g = g2
     return n
+
+
+def decay(state: State, rng: Stream) -> None:
+    """One mini-batch's decay (``lifetime``): each unstuck device's hidden state moves to
+    G0 + (h - G0) x its decay scale, within its bounds; with write noise every device then
+    reads a fresh offset (one normal each), pair by pair, row by row, G+ before G-."""
+    P = state.params
+    rows, cols = state.Gp.shape
+    for i in range(rows):
+        for j in range(cols):
+            for d in range(2):
+                G = device(state, d)
+                h = G[i, j] - state.wn[d, i, j] if P.write_noise > 0.0 else G[i, j]
+                live = state.stuck[d, i, j] == OK
+                if live:
+                    lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
+                    g0 = weight_zero(P, lo, hi)
+                    h = min(max(g0 + (h - g0) * state.aux[AUX_PLANES * d + AUX_DECAY, i, j],
+                                lo), hi)
+                    G[i, j] = h
+                if P.write_noise > 0.0:
+                    w = rng.normal()
+                    if live:
+                        G[i, j] = h + P.write_noise * P.dP * w
+                        if P.write_noise_clip:
+                            G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
+                        state.wn[d, i, j] = G[i, j] - h
 
 
 # the updates and the commit ------------------------------------------------------------
@@ -527,6 +659,10 @@ def pulsed_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
                 pulse_pair(state, i, j, n, (post[i] > 0.0) == (pre[j] > 0.0), rng)
     if P.refresh and P.refresh_write == REFRESH_OPEN:
         refresh_sweep(state, rng)
+    elif P.refresh and P.refresh_write == REFRESH_AIHWKIT:
+        refresh_columns(state, rng)
+    if P.lifetime > 0.0:
+        decay(state, rng)
     c[LINE_PULSES] += sum(sum(col) for col in columns)
     c[RNG_DRAWS] += rng.close()
 
@@ -569,6 +705,8 @@ def analog_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
                                   P.g_max)
                 mark_written(state, k, i, j, device(state, k)[i, j])
                 state.counters[DEVICES_WRITTEN] += 1
+    if P.lifetime > 0.0:
+        decay(state, rng)
     state.counters[RNG_DRAWS] += rng.close()
 
 
@@ -585,6 +723,8 @@ def commit(state: State) -> None:
     pair = (P.commit != COMMIT_PULSE and P.pair_grid == PAIR_GRID and P.dG > 0.0
             and P.mapping != ONE_SIDED)
     unit = P.dG / P.g_per_w if pair else P.dw_min
+    if P.commit != COMMIT_PULSE and P.pulse_step > 0.0 and P.dG > 0.0:  # whole levels
+        unit = P.dw_min / P.dP * P.dG
     rows, cols = state.acc.shape
     for i in range(rows):
         for j in range(cols):
@@ -592,7 +732,7 @@ def commit(state: State) -> None:
             if a == 0.0:
                 continue
             n = 0
-            if P.dG > 0.0:
+            if P.dG > 0.0 or P.commit == COMMIT_PULSE:
                 n = int(a / unit)  # toward zero
                 if n == 0:
                     continue
@@ -614,7 +754,7 @@ def commit(state: State) -> None:
             targets = [state.Gp[i, j] + delta, state.Gm[i, j] - delta]
             if P.mapping == ONE_SIDED:  # both devices retargeted from the weight they hold
                 w = (state.Gp[i, j] - state.Gm[i, j]) / P.g_per_w + \
-                    (n * P.dw_min if P.dG > 0.0 else a)
+                    (n * unit if P.dG > 0.0 else a)
                 w = min(max(w, -P.w_max), P.w_max)
                 targets = [P.g_min + max(w, 0.0) * P.g_per_w,
                            P.g_min + max(-w, 0.0) * P.g_per_w]
@@ -630,6 +770,10 @@ def commit(state: State) -> None:
                 mark_written(state, d, i, j, targets[d])
     if P.commit == COMMIT_PULSE and P.refresh and P.refresh_write == REFRESH_OPEN:
         refresh_sweep(state, rng)
+    elif P.commit == COMMIT_PULSE and P.refresh and P.refresh_write == REFRESH_AIHWKIT:
+        refresh_columns(state, rng)
+    if P.lifetime > 0.0:
+        decay(state, rng)
     c[RNG_DRAWS] += rng.close()
 
 
@@ -646,10 +790,17 @@ def program(state: State, W: np.ndarray) -> int:
         state.stuck[d, i, j] = STUCK_LOW if u < P.stuck_low else (
             STUCK_HIGH if u < P.stuck_low + P.stuck_high else OK)
     for i, j, d in cells:  # pulse-step scale and up/down asymmetry
-        s = max(1.0 + P.dw_min_dtod * rng.normal(), 0.0)
-        a = P.up_down + P.up_down_dtod * rng.normal()
-        state.step[2 * d, i, j] = max(s * (1.0 + a), 0.0)
-        state.step[2 * d + 1, i, j] = max(s * (1.0 - a), 0.0)
+        z1, z2 = rng.normal(), rng.normal()
+        if P.scale_spread == SPREAD_MULT:
+            s = max(1.0 + P.dw_min_dtod * z1, 0.0)
+            a = P.up_down + P.up_down_dtod * z2
+            state.step[2 * d, i, j] = max(s * (1.0 + a), 0.0)
+            state.step[2 * d + 1, i, j] = max(s * (1.0 - a), 0.0)
+        else:  # aihwkit: gain + r up, gain - r down; up_down shrinks one direction
+            gain = math.exp(P.dw_min_dtod * z1) if P.scale_spread == SPREAD_LOGNORMAL else \
+                1.0 + P.dw_min_dtod * z1
+            state.step[2 * d, i, j] = abs(min(P.up_down, 0.0) + gain + P.up_down_dtod * z2)
+            state.step[2 * d + 1, i, j] = abs(-max(P.up_down, 0.0) + gain - P.up_down_dtod * z2)
     for i, j, d in cells:  # drift exponent
         z = rng.normal()
         state.nu[d, i, j] = max(P.drift_nu + P.drift_nu_std * z, 0.0)
@@ -676,15 +827,67 @@ def program(state: State, W: np.ndarray) -> int:
     if P.bound_dtod_up > 0.0 or P.bound_dtod_down > 0.0:  # each device's own bounds
         g0 = P.g_min + P.step_center * (P.g_max - P.g_min)
         for i, j, d in cells:
-            ru = max(abs(1.0 + P.bound_dtod_up * rng.normal()), 1e-3)
-            rl = max(abs(1.0 + P.bound_dtod_down * rng.normal()), 1e-3)
-            if P.bound_spread != BOUND_SYMMETRIC:  # inward: a bound only moves toward G0
-                ru, rl = min(ru, 1.0), min(rl, 1.0)
-            lo, hi = max(g0 - (g0 - P.g_min) * rl, 0.0), g0 + (P.g_max - g0) * ru
+            zu, zl = rng.normal(), rng.normal()
+            if P.bound_spread == BOUND_AIHWKIT:  # populate: swapped if crossed, then |.|
+                lo, hi = g0 - (g0 - P.g_min) * (1.0 + P.bound_dtod_down * zl), \
+                    g0 + (P.g_max - g0) * (1.0 + P.bound_dtod_up * zu)
+                if lo > hi:
+                    lo, hi = hi, lo
+                lo, hi = g0 - abs(g0 - lo), g0 + abs(hi - g0)
+            else:
+                ru = max(abs(1.0 + P.bound_dtod_up * zu), 1e-3)
+                rl = max(abs(1.0 + P.bound_dtod_down * zl), 1e-3)
+                if P.bound_spread != BOUND_SYMMETRIC:  # inward: a bound only moves toward G0
+                    ru, rl = min(ru, 1.0), min(rl, 1.0)
+                lo, hi = max(g0 - (g0 - P.g_min) * rl, 0.0), g0 + (P.g_max - g0) * ru
             state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j] = lo, hi
             if state.stuck[d, i, j] == OK:
                 device(state, d)[i, j] = min(max(device(state, d)[i, j], lo), hi)
+    if (P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0 or has_reference(P)
+            or P.lifetime > 0.0 or P.reset_dtod > 0.0):
+        draw_aux(state, cells, rng)
+    if P.apply_write_noise_on_set and P.write_noise > 0.0:  # the offset read on top
+        for i, j, d in cells:
+            z = rng.normal()
+            if state.stuck[d, i, j] == OK:
+                G = device(state, d)
+                h = G[i, j]
+                G[i, j] = h + P.write_noise * P.dP * z
+                if P.write_noise_clip:
+                    G[i, j] = min(max(G[i, j], P.g_min), P.g_max)
+                state.wn[d, i, j] = G[i, j] - h
     return rng.close()
+
+
+def draw_aux(state: State, cells: list[tuple[int, int, int]], rng: Stream) -> None:
+    """Each device's aihwkit extras (``time._draw_aux``): slopes |gamma + gamma_dtod z|, the
+    reference (reference_mean + reference_std z) range plus the symmetry point, the decay
+    scale 1 - 1 / t, t = lifetime (1 + lifetime_dtod z)."""
+    P = state.params
+    grange = P.g_max - P.g_min
+    g0 = P.g_min + P.step_center * grange
+    for i, j, d in cells:
+        k = AUX_PLANES * d
+        if P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0:
+            zu, zd = rng.normal(), rng.normal()
+            state.aux[k + AUX_GAMMA_UP, i, j] = abs(P.gamma_up + P.gamma_up_dtod * zu)
+            state.aux[k + AUX_GAMMA_DOWN, i, j] = abs(P.gamma_down + P.gamma_down_dtod * zd)
+        if has_reference(P):
+            z = rng.normal() if P.reference_std > 0.0 else 0.0
+            ref = (P.reference_mean + P.reference_std * z) * grange
+            lo, hi = state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j]
+            if P.subtract_symmetry_point and hi > g0 and lo < g0:  # where s_up (1 - x / up)
+                su, sd = state.step[2 * d, i, j], state.step[2 * d + 1, i, j]  # = s_down (..)
+                den = su / (hi - g0) - sd / (lo - g0)
+                if den != 0.0:
+                    ref += (su - sd) / den
+            state.aux[k + AUX_REF, i, j] = ref
+        if P.lifetime > 0.0:
+            t = P.lifetime * (1.0 + P.lifetime_dtod * (rng.normal() if P.lifetime_dtod > 0.0
+                                                         else 0.0))
+            state.aux[k + AUX_DECAY, i, j] = 1.0 - 1.0 / t if t > 1.0 else 0.0
+        if P.reset_dtod > 0.0:
+            state.aux[k + AUX_RESET, i, j] = (P.reset + P.reset_dtod * rng.normal()) * grange
 
 
 def calibration_readout(state: State) -> float:

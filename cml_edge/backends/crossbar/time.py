@@ -19,6 +19,13 @@ import numpy as np
 from numba import njit
 
 from cml_edge.backends.crossbar.codes import (
+    AUX_DECAY,
+    AUX_GAMMA_DOWN,
+    AUX_GAMMA_UP,
+    AUX_PLANES,
+    AUX_REF,
+    AUX_RESET,
+    BOUND_AIHWKIT,
     BOUND_SYMMETRIC,
     CALIBRATION_READS,
     COMP_PERIPHERY,
@@ -26,6 +33,8 @@ from cml_edge.backends.crossbar.codes import (
     ONE_SIDED,
     PAIR_GRID,
     RNG_DRAWS,
+    SPREAD_LOGNORMAL,
+    SPREAD_MULT,
     STUCK_HIGH,
     STUCK_LOW,
 )
@@ -74,7 +83,10 @@ def xbar_program(state, W):
     kept as ``nu_z`` for ``drift_nu_g``); one normal per device for the programming
     noise. Devices are visited row by row, G+ before G-. Then, only when a bound spread
     is configured (``bound_dtod_up`` or ``_down`` > 0), two normals per device for its
-    upper and lower bound (``bound_spread``; a lower bound >= 0 uS), which clip it.
+    upper and lower bound (``bound_spread``; a lower bound >= 0 uS unless ``aihwkit``),
+    which clip it. Then, only where configured, per device the aihwkit extras
+    (:func:`_draw_aux`) and, with ``apply_write_noise_on_set``, one normal per device for
+    its write-noise offset.
     """
     Gp = state.Gp
     Gm = state.Gm
@@ -96,10 +108,17 @@ def xbar_program(state, W):
             for d in range(2):
                 z1, ctr = normal_at(key, ctr)
                 z2, ctr = normal_at(key, ctr)
-                s = max(1.0 + P.dw_min_dtod * z1, 0.0)
-                a = P.up_down + P.up_down_dtod * z2
-                state.step[2 * d, i, j] = max(s * (1.0 + a), 0.0)
-                state.step[2 * d + 1, i, j] = max(s * (1.0 - a), 0.0)
+                if P.scale_spread == SPREAD_MULT:
+                    s = max(1.0 + P.dw_min_dtod * z1, 0.0)
+                    a = P.up_down + P.up_down_dtod * z2
+                    state.step[2 * d, i, j] = max(s * (1.0 + a), 0.0)
+                    state.step[2 * d + 1, i, j] = max(s * (1.0 - a), 0.0)
+                else:  # aihwkit: gain + r up, gain - r down, up_down shrinking one of them
+                    gain = math.exp(P.dw_min_dtod * z1) if P.scale_spread == SPREAD_LOGNORMAL \
+                        else 1.0 + P.dw_min_dtod * z1
+                    r = P.up_down_dtod * z2
+                    state.step[2 * d, i, j] = abs(min(P.up_down, 0.0) + gain + r)
+                    state.step[2 * d + 1, i, j] = abs(-max(P.up_down, 0.0) + gain - r)
     for i in range(rows):
         for j in range(cols):
             for d in range(2):
@@ -153,13 +172,16 @@ def xbar_program(state, W):
                 for d in range(2):
                     zu, ctr = normal_at(key, ctr)
                     zl, ctr = normal_at(key, ctr)
-                    ru = max(abs(1.0 + P.bound_dtod_up * zu), 1e-3)
-                    rl = max(abs(1.0 + P.bound_dtod_down * zl), 1e-3)
-                    if P.bound_spread != BOUND_SYMMETRIC:  # only inward
-                        ru = min(ru, 1.0)
-                        rl = min(rl, 1.0)
-                    b_lo = max(g0 - (g0 - g_min) * rl, 0.0)
-                    b_hi = g0 + (g_max - g0) * ru
+                    if P.bound_spread == BOUND_AIHWKIT:
+                        b_lo, b_hi = aihwkit_bounds(g0, zu, zl, P)
+                    else:
+                        ru = max(abs(1.0 + P.bound_dtod_up * zu), 1e-3)
+                        rl = max(abs(1.0 + P.bound_dtod_down * zl), 1e-3)
+                        if P.bound_spread != BOUND_SYMMETRIC:  # only inward
+                            ru = min(ru, 1.0)
+                            rl = min(rl, 1.0)
+                        b_lo = max(g0 - (g0 - g_min) * rl, 0.0)
+                        b_hi = g0 + (g_max - g0) * ru
                     state.bnd[2 * d, i, j] = b_lo
                     state.bnd[2 * d + 1, i, j] = b_hi
                     if state.stuck[d, i, j] != OK:
@@ -168,8 +190,100 @@ def xbar_program(state, W):
                         Gp[i, j] = min(max(Gp[i, j], b_lo), b_hi)
                     else:
                         Gm[i, j] = min(max(Gm[i, j], b_lo), b_hi)
+    if has_aux(P):
+        ctr = _draw_aux(state.step, state.bnd, state.aux, P, key, ctr)
+    if P.apply_write_noise_on_set and P.write_noise > 0.0:
+        for i in range(rows):
+            for j in range(cols):
+                for d in range(2):
+                    z, ctr = normal_at(key, ctr)
+                    if state.stuck[d, i, j] != OK:
+                        continue
+                    h = Gp[i, j] if d == 0 else Gm[i, j]
+                    G = h + P.write_noise * P.dP * z
+                    if P.write_noise_clip:
+                        G = min(max(G, g_min), g_max)
+                    state.wn[d, i, j] = G - h
+                    if d == 0:
+                        Gp[i, j] = G
+                    else:
+                        Gm[i, j] = G
     state.rng[1] = ctr
     return np.int64(ctr - start)
+
+
+@njit(cache=True, inline="always")
+def aihwkit_bounds(g0, zu, zl, P):
+    """A device's bounds (lo, hi) as aihwkit's ``PulsedRPUDevice::populate`` draws them
+    (``bound_spread`` aihwkit): u = (g_max - G0)(1 + bound_dtod_up zu) and
+    l = (G0 - g_min)(1 + bound_dtod_down zl) from G0, swapped where G0 - l > G0 + u, then
+    hi = G0 + |u|, lo = G0 - |l| (``enforce_consistency``)."""
+    u = (P.g_max - g0) * (1.0 + P.bound_dtod_up * zu)
+    lo = g0 - (g0 - P.g_min) * (1.0 + P.bound_dtod_down * zl)
+    hi = g0 + u
+    if lo > hi:
+        lo, hi = hi, lo
+    return g0 - abs(g0 - lo), g0 + abs(hi - g0)
+
+
+@njit(cache=True, inline="always")
+def has_aux(P):
+    """Whether the config draws per-device extras into ``aux``: spread linear-step slopes,
+    a reference, decay, or a spread reset bias."""
+    return (P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0 or has_reference(P)
+            or P.lifetime > 0.0 or P.reset_dtod > 0.0)
+
+
+@njit(cache=True, inline="always")
+def has_reference(P):
+    """Whether each device has a reference subtracted (aihwkit ``SoftBoundsReference``)."""
+    return P.reference_mean != 0.0 or P.reference_std > 0.0 or P.subtract_symmetry_point != 0
+
+
+@kernel
+def _draw_aux(step, bnd, aux, P, key, ctr):
+    """Each device's aihwkit extras, device by device, row by row, G+ before G- (a normal
+    only where its spread is nonzero): slopes |gamma + gamma_dtod z| up then down
+    (``LinearStepRPUDevice::populate``); the reference (reference_mean + reference_std z)
+    range, plus the symmetry point (``SoftBoundsReferenceRPUDevice::populate``); the
+    decay scale 1 - 1 / t, t = lifetime (1 + lifetime_dtod z) (0 where t <= 1); the reset
+    bias (reset + reset_dtod z) range (``PulsedRPUDevice::populate``)."""
+    rows, cols = step.shape[1], step.shape[2]
+    grange = P.g_max - P.g_min
+    g0 = P.g_min + P.step_center * grange
+    for i in range(rows):
+        for j in range(cols):
+            for d in range(2):
+                k = AUX_PLANES * d
+                if P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0:
+                    zu, ctr = normal_at(key, ctr)
+                    zd, ctr = normal_at(key, ctr)
+                    aux[k + AUX_GAMMA_UP, i, j] = abs(P.gamma_up + P.gamma_up_dtod * zu)
+                    aux[k + AUX_GAMMA_DOWN, i, j] = abs(P.gamma_down + P.gamma_down_dtod * zd)
+                if has_reference(P):
+                    z = 0.0
+                    if P.reference_std > 0.0:
+                        z, ctr = normal_at(key, ctr)
+                    ref = (P.reference_mean + P.reference_std * z) * grange
+                    lo = bnd[2 * d, i, j]
+                    hi = bnd[2 * d + 1, i, j]
+                    if P.subtract_symmetry_point and hi > g0 and lo < g0:
+                        su = step[2 * d, i, j]
+                        sd = step[2 * d + 1, i, j]
+                        den = su / (hi - g0) - sd / (lo - g0)
+                        if den != 0.0:
+                            ref += (su - sd) / den
+                    aux[k + AUX_REF, i, j] = ref
+                if P.lifetime > 0.0:
+                    z = 0.0
+                    if P.lifetime_dtod > 0.0:
+                        z, ctr = normal_at(key, ctr)
+                    t = P.lifetime * (1.0 + P.lifetime_dtod * z)
+                    aux[k + AUX_DECAY, i, j] = 1.0 - 1.0 / t if t > 1.0 else 0.0
+                if P.reset_dtod > 0.0:
+                    z, ctr = normal_at(key, ctr)
+                    aux[k + AUX_RESET, i, j] = (P.reset + P.reset_dtod * z) * grange
+    return ctr
 
 
 @kernel

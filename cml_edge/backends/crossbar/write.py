@@ -21,9 +21,10 @@ Update, W += lr post pre^T:
   the grid when there is one).
 
 A pulse moves a device by dG s (1 + dw_min_std z) (:func:`_move`), dG the level
-spacing, s the device's fixed up or down scale (device-to-device spread and up/down
-asymmetry), z ~ N(0, 1) fresh per pulse; soft bounds scale it by 2 (g_max - G) /
-(g_max - g_min) going up, 2 (G - g_min) / (g_max - g_min) going down. Every write clips
+spacing (or ``pulse_step`` of the range: ``P.dP``), s the device's fixed up or down
+scale (device-to-device spread and up/down asymmetry), z ~ N(0, 1) fresh per pulse; soft
+bounds scale it by 2 (g_max - G) / (g_max - g_min) going up, 2 (G - g_min) / (g_max -
+g_min) going down. Every write clips
 a device to [g_min, g_max]; stuck devices never change. Only devices actually pulsed or
 programmed are written (and get write noise); a write restarts the device's drift clock
 (:func:`cml_edge.backends.crossbar.time.mark_written`).
@@ -36,6 +37,9 @@ write-verified onto the larger device (:func:`_refresh_pair`); ``step_model`` gi
 step's dependence on G (:func:`step_factor`) between the device's own bounds ``bnd``
 and ``c2c`` its cycle-to-cycle noise (:func:`_move_model`); ``write_noise`` reads a
 pulsed device as its hidden state plus a fresh offset (``wn``; :func:`_pulse_device`).
+aihwkit's own behaviours (``--preset aihwkit:NAME``): a reference offset of each device's
+internal state, per-device linear-step slopes (``aux``), a decay after every mini-batch
+(:func:`_decay_sweep`) and aihwkit's refresh of one-sided pairs (:func:`_refresh_columns`).
 
 Draw order (the array's stream): per pulse and device, the c2c normal then the
 write-noise normal; a refresh's programming noise after its pair's pulses; a pulsed
@@ -54,7 +58,13 @@ from numba import njit
 
 from cml_edge.backends.crossbar.codes import (
     ACC_WRITES,
-    BOUND_SYMMETRIC,
+    AUX_DECAY,
+    AUX_GAMMA_DOWN,
+    AUX_GAMMA_UP,
+    AUX_PLANES,
+    AUX_REF,
+    AUX_RESET,
+    BOUND_INWARD,
     BOUNDS_SOFT,
     C2C_ADD,
     C2C_MULT,
@@ -67,8 +77,10 @@ from cml_edge.backends.crossbar.codes import (
     ONE_SIDED,
     PAIR_GRID,
     PULSES_CAPPED,
+    REFRESH_AIHWKIT,
     REFRESH_OPEN,
     REFRESH_PULSES,
+    REFRESH_VERIFY,
     REFRESHES,
     RNG_DRAWS,
     SET_GAUSS,
@@ -80,7 +92,7 @@ from cml_edge.backends.crossbar.codes import (
 )
 from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
 from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
-from cml_edge.backends.crossbar.time import mark_written
+from cml_edge.backends.crossbar.time import has_reference, mark_written
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.rng import uniform
@@ -113,7 +125,7 @@ def _move(g, up, s, z, P):
     (step_model ``bounds``, the model of earlier releases)."""
     g_min = P.g_min
     g_max = P.g_max
-    d = P.dG * s * (1.0 + P.dw_min_std * z)
+    d = P.dP * s * (1.0 + P.dw_min_std * z)
     if P.bounds == BOUNDS_SOFT:
         if up:
             d *= 2.0 * (g_max - g) / (g_max - g_min)
@@ -129,29 +141,36 @@ def _move(g, up, s, z, P):
 def weight_zero(lo, hi, P):
     """G0, the conductance of a device's weight zero: lo + step_center (hi - lo) of its own
     bounds (``bound_spread`` inward), or the nominal g_min + step_center (g_max - g_min)
-    that its bounds spread around (symmetric: aihwkit measures w from 0)."""
-    if P.bound_spread == BOUND_SYMMETRIC:
+    that its bounds spread around (symmetric, aihwkit: aihwkit measures w from 0)."""
+    if P.bound_spread != BOUND_INWARD:
         return P.g_min + P.step_center * (P.g_max - P.g_min)
     return lo + P.step_center * (hi - lo)
 
 
 @njit(cache=True, inline="always")
-def step_factor(g, up, lo, hi, P):
+def step_factor(g, up, lo, hi, gu, gd, P):
     """The mean step of one pulse at conductance g, in units of the device's nominal step
     s dG (``step_model`` of :class:`~cml_edge.backends.crossbar.config.DeviceConfig`;
-    lo / hi the device's bounds); never negative."""
+    lo / hi the device's bounds, gu / gd its ``linear`` slopes); never negative but
+    for a ``soft`` device with a reference (``reference_*``), as aihwkit's."""
     m = P.step_model
     span = hi - lo
     if not span > 0.0:
         return 0.0
     g0 = weight_zero(lo, hi, P)
     if m in (STEP_LINEAR, STEP_SOFT):
-        if up:
-            f = 1.0 - (P.gamma_up if m == STEP_LINEAR else 1.0) * (g - g0) / (hi - g0)
+        if P.mean_bound_reference and m == STEP_LINEAR:  # aihwkit: slopes on the nominal
+            ref_hi = P.g_max  # bounds
+            ref_lo = P.g_min
         else:
-            f = 1.0 - (P.gamma_down if m == STEP_LINEAR else 1.0) * (g - g0) / (lo - g0)
+            ref_hi = hi
+            ref_lo = lo
+        if up:
+            f = 1.0 - (gu if m == STEP_LINEAR else 1.0) * (g - g0) / (ref_hi - g0)
+        else:
+            f = 1.0 - (gd if m == STEP_LINEAR else 1.0) * (g - g0) / (ref_lo - g0)
     elif m == STEP_EXP:
-        if P.bound_spread == BOUND_SYMMETRIC:
+        if P.bound_spread != BOUND_INWARD:
             zz = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
         else:
             zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
@@ -167,15 +186,17 @@ def step_factor(g, up, lo, hi, P):
             2.0 * (g - P.g_min) / (P.g_max - P.g_min)
     else:
         f = 1.0
+    if m == STEP_SOFT and has_reference(P):  # aihwkit's reference device: an internal
+        return f  # state past its bound (a reference) steps back toward it
     return max(f, 0.0)
 
 
 @njit(cache=True, inline="always")
-def _move_model(g, up, s, z, lo, hi, P):
+def _move_model(g, up, s, z, lo, hi, gu, gd, P):
     """A device at g after one pulse of nominal size s dG under ``step_model`` and ``c2c``
-    (module docstring), clipped to its bounds [lo, hi]."""
-    dG = P.dG
-    f = step_factor(g, up, lo, hi, P)
+    (module docstring), clipped to its bounds [lo, hi]; gu / gd its ``linear`` slopes."""
+    dG = P.dP
+    f = step_factor(g, up, lo, hi, gu, gd, P)
     step = dG * s * f
     c = P.c2c
     if c == C2C_MULT:
@@ -200,18 +221,31 @@ def _move_model(g, up, s, z, lo, hi, P):
 
 
 @njit(cache=True, inline="always")
-def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
+def _pulse_device(P, step, wn, bnd, aux, G, d, i, j, up, z, w):
     """Device d of pair (i, j), at apparent conductance G, after one pulse; with write
     noise, the pulse moves the hidden state G - wn and a fresh offset w write_noise dG
-    is read on top of it."""
+    is read on top of it; with a reference, it moves the internal state h + ref (aihwkit
+    ``SoftBoundsReferenceRPUDevice``: w += ref, the step, the bounds, w -= ref)."""
     s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
     h = G - wn[d, i, j] if P.write_noise > 0.0 else G
     if P.step_model == STEP_BOUNDS:
         h = _move(h, up, s, z, P)
     else:
-        h = _move_model(h, up, s, z, bnd[2 * d, i, j], bnd[2 * d + 1, i, j], P)
+        k = AUX_PLANES * d
+        gu = P.gamma_up
+        gd = P.gamma_down
+        if P.gamma_up_dtod > 0.0 or P.gamma_down_dtod > 0.0:
+            gu = aux[k + AUX_GAMMA_UP, i, j]
+            gd = aux[k + AUX_GAMMA_DOWN, i, j]
+        lo = bnd[2 * d, i, j]
+        hi = bnd[2 * d + 1, i, j]
+        if has_reference(P):
+            ref = aux[k + AUX_REF, i, j]
+            h = _move_model(h + ref, up, s, z, lo, hi, gu, gd, P) - ref
+        else:
+            h = _move_model(h, up, s, z, lo, hi, gu, gd, P)
     if P.write_noise > 0.0:
-        G = h + P.write_noise * P.dG * w
+        G = h + P.write_noise * P.dP * w
         if P.write_noise_clip:
             G = min(max(G, P.g_min), P.g_max)
         wn[d, i, j] = G - h
@@ -220,7 +254,7 @@ def _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w):
 
 
 @njit(cache=True, inline="always")
-def _pulse_device_n(P, step, wn, bnd, G, live, d, i, j, up, n, key, ctr):
+def _pulse_device_n(P, step, wn, bnd, aux, G, live, d, i, j, up, n, key, ctr):
     """Device d of pair (i, j), at G, after n pulses (up or down); per pulse the c2c
     normal (if ``dw_min_std``) then the write-noise normal (if ``write_noise``), drawn
     whether or not the device is ``live`` (not stuck). Returns (G, the counter)."""
@@ -232,7 +266,7 @@ def _pulse_device_n(P, step, wn, bnd, G, live, d, i, j, up, n, key, ctr):
         if P.write_noise > 0.0:
             w, ctr = normal_at(key, ctr)
         if live:
-            G = _pulse_device(P, step, wn, bnd, G, d, i, j, up, z, w)
+            G = _pulse_device(P, step, wn, bnd, aux, G, d, i, j, up, z, w)
     return G, ctr
 
 
@@ -241,12 +275,13 @@ def _pulse_device_n(P, step, wn, bnd, G, live, d, i, j, up, n, key, ctr):
 def set_pulses(target, P):
     """SET pulses the mean device (s = 1, no noise, nominal bounds) needs from g_min to
     ``target``: what a refresh's write-verify costs (at most 100,000)."""
-    if not P.dG > 0.0:
+    if not P.dP > 0.0:
         return 0
     g = P.g_min
     n = 0
     while g < target and n < 100000:
-        g2 = min(g + P.dG * step_factor(g, True, P.g_min, P.g_max, P), P.g_max)
+        g2 = min(g + P.dP * step_factor(g, True, P.g_min, P.g_max, P.gamma_up, P.gamma_down, P),
+                 P.g_max)
         n += 1
         if not g2 > g:
             break
@@ -291,7 +326,7 @@ def _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, 
 
 
 @kernel
-def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, ctr):
+def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, c, P, key, ctr):
     """The open-loop refresh (``refresh_write`` open-loop): every pair read, device by
     device with noise; a pair whose reads cross the thresholds is RESET and the read
     difference written onto the device that read larger by one stochastic train pair.
@@ -325,12 +360,12 @@ def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, c
                     else:
                         Gm[i, j] = P.g_min
                     wn[d, i, j] = 0.0
-            bl = max(1, min(int(math.ceil(diff / P.dG)), P.bl_max))
-            p = math.sqrt(diff / (P.dG * bl))
+            bl = max(1, min(int(math.ceil(diff / P.dP)), P.bl_max))
+            p = math.sqrt(diff / (P.dP * bl))
             a, ctr = _pulse_train(p, bl, key, ctr)
             b, ctr = _pulse_train(p, bl, key, ctr)
             n = popcount(a & b)
-            G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if big == 0 else Gm[i, j],
+            G, ctr = _pulse_device_n(P, step, wn, bnd, aux, Gp[i, j] if big == 0 else Gm[i, j],
                                      stuck[big, i, j] == OK, big, i, j, True, n, key, ctr)
             if big == 0:
                 Gp[i, j] = G
@@ -344,7 +379,112 @@ def _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, c
 
 
 @njit(cache=True, inline="always")
-def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
+def _refresh_read(G, z, sd, q, P):
+    """The ``aihwkit`` refresh's read of a device at G: G0 plus (G - G0 + sd z) rounded to
+    the refresh ADC's step q (none where q is 0)."""
+    v = G + sd * z
+    if q > 0.0:
+        g0 = P.g_min + P.step_center * (P.g_max - P.g_min)
+        v = g0 + math.floor((v - g0) / q + 0.5) * q
+    return v
+
+
+@kernel
+def _refresh_columns(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, c, P, key, ctr,
+                     flag, diff):
+    """The ``aihwkit`` refresh (``refresh_write``; aihwkit
+    ``OneSidedRPUDevice::refreshWeights``), column by column. Draws: the pairs near enough
+    to the thresholds to be read across them (:data:`~cml_edge.backends.crossbar.config.
+    REFRESH_READ_SIGMAS` stds and a read step) read G+ then G-, row by row; the crossing
+    pairs' G+ RESET, row by row, then their G- (a normal each where ``reset_std``); then
+    the pulsed update onto G+: the column train, then per pair its row train and its
+    pulses' normals, row by row; then onto G-. ``flag`` (int) and ``diff`` are work space
+    of one entry per row."""
+    rows, cols = Gp.shape
+    grange = P.g_max - P.g_min
+    sd = P.refresh_read_noise * grange
+    q = P.refresh_read_step * grange
+    margin = REFRESH_READ_SIGMAS * sd + q
+    near_up = P.g_min + P.refresh_upper * grange - margin
+    near_lo = P.g_min + P.refresh_lower * grange - margin
+    gran = P.pulse_gain * P.dP  # aihwkit's weight granularity, in uS
+    for j in range(cols):
+        dmax_p = 0.0
+        dmax_m = 0.0
+        found = False
+        for i in range(rows):
+            flag[i] = 0
+            if not (max(Gp[i, j], Gm[i, j]) > near_up and min(Gp[i, j], Gm[i, j]) > near_lo):
+                continue
+            zp, ctr = normal_at(key, ctr)
+            zm, ctr = normal_at(key, ctr)
+            rp = _refresh_read(Gp[i, j], zp, sd, q, P)
+            rm = _refresh_read(Gm[i, j], zm, sd, q, P)
+            up_ = (rp - P.g_min) / grange
+            um = (rm - P.g_min) / grange
+            if not (max(up_, um) > P.refresh_upper and min(up_, um) > P.refresh_lower):
+                continue
+            diff[i] = abs(rp - rm)
+            found = True
+            if rp > rm:
+                flag[i] = 1
+                dmax_p = max(dmax_p, diff[i])
+            else:
+                flag[i] = 2
+                dmax_m = max(dmax_m, diff[i])
+        if not found:
+            continue
+        for d in range(2):  # RESET: G+ of every crossing pair, then G-
+            for i in range(rows):
+                if flag[i] == 0:
+                    continue
+                z = 0.0
+                if P.reset_std > 0.0:
+                    z, ctr = normal_at(key, ctr)
+                if stuck[d, i, j] != OK:
+                    continue
+                lo = bnd[2 * d, i, j]
+                hi = bnd[2 * d + 1, i, j]
+                b = aux[AUX_PLANES * d + AUX_RESET, i, j] if P.reset_dtod > 0.0 else \
+                    P.reset * grange
+                G = min(max(weight_zero(lo, hi, P) + b + P.reset_std * grange * z, lo), hi)
+                if d == 0:
+                    Gp[i, j] = G
+                else:
+                    Gm[i, j] = G
+                wn[d, i, j] = 0.0
+        for d in range(2):  # the write: a pulsed update of the column onto G+, then G-
+            dmax = dmax_p if d == 0 else dmax_m
+            if not dmax > 0.0:
+                continue
+            k = dmax / gran
+            bl = max(1, min(int(math.ceil(k)), P.bl_max))
+            dval = dmax * P.bl_max / k if k > P.bl_max else dmax
+            a, ctr = _pulse_train(math.sqrt(dval / (gran * bl)), bl, key, ctr)
+            scale = 1.0 / math.sqrt(dval * gran * bl)
+            for i in range(rows):
+                if flag[i] != d + 1:
+                    continue
+                b, ctr = _pulse_train(diff[i] * scale, bl, key, ctr)
+                n = popcount(a & b)
+                G, ctr = _pulse_device_n(P, step, wn, bnd, aux, Gp[i, j] if d == 0 else Gm[i, j],
+                                         stuck[d, i, j] == OK, d, i, j, True, n, key, ctr)
+                if d == 0:
+                    Gp[i, j] = G
+                else:
+                    Gm[i, j] = G
+                c[REFRESH_PULSES] += n
+        for i in range(rows):
+            if flag[i] != 0:
+                mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+                mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+                c[REFRESHES] += 1
+                c[REFRESH_PULSES] += 2  # the two RESETs
+    return ctr
+
+
+@njit(cache=True, inline="always")
+def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, P, i, j, n,
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
     pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
@@ -355,7 +495,7 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
     through :func:`_pulse_pair_call`."""
     if P.set_only:  # one device, up: G+ to raise w, G- to lower it
         d = 0 if positive else 1
-        G, ctr = _pulse_device_n(P, step, wn, bnd, Gp[i, j] if positive else Gm[i, j],
+        G, ctr = _pulse_device_n(P, step, wn, bnd, aux, Gp[i, j] if positive else Gm[i, j],
                                  stuck[d, i, j] == OK, d, i, j, True, n, key, ctr)
         if positive:
             Gp[i, j] = G
@@ -380,27 +520,28 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i,
             if wnoisy:
                 wm, ctr = normal_at(key, ctr)
             if live_p:
-                Gp[i, j] = _pulse_device(P, step, wn, bnd, Gp[i, j], 0, i, j, positive, zp, wp)
+                Gp[i, j] = _pulse_device(P, step, wn, bnd, aux, Gp[i, j], 0, i, j, positive,
+                                         zp, wp)
             if live_m:
-                Gm[i, j] = _pulse_device(P, step, wn, bnd, Gm[i, j], 1, i, j, not positive,
-                                         zm, wm)
+                Gm[i, j] = _pulse_device(P, step, wn, bnd, aux, Gm[i, j], 1, i, j,
+                                         not positive, zm, wm)
         mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
         mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
-    if P.refresh != 0 and P.refresh_write != REFRESH_OPEN:
+    if P.refresh != 0 and P.refresh_write == REFRESH_VERIFY:
         ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
                             ctr)
     return ctr
 
 
 @kernel
-def _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, n,
-                     positive, key, ctr):
+def _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, P, i, j,
+                     n, positive, key, ctr):
     """:func:`_pulse_pair` compiled once, as the commit's call per written pair: inlined into
     the commit, compiled for both layouts of the state, it was most of the commit's compile
     time; the call costs the per-walk training step 2-11 % (benchmarks/README.md, "The
     pulse path compiled once")."""
-    return _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P, i, j,
-                       n, positive, key, ctr)
+    return _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, P, i,
+                       j, n, positive, key, ctr)
 
 
 # write-verify ---------------------------------------------------------------------------
@@ -421,6 +562,40 @@ def _program_device(G, delta, P, key, ctr, lo, hi):
         elif target > g_max:
             target = g_max
     return min(max(target, lo), hi), ctr
+
+
+@kernel
+def _decay_sweep(Gp, Gm, stuck, bnd, wn, aux, P, key, ctr):
+    """One mini-batch's decay (``lifetime``; aihwkit ``PulsedRPUDevice::decayWeights``):
+    every unstuck device's hidden state h <- G0 + (h - G0) x its decay scale, clipped to
+    its bounds; with write noise, then a fresh offset on every device
+    (``applyUpdateWriteNoise``), one normal per device, pair by pair, row by row, G+
+    before G-."""
+    rows, cols = Gp.shape
+    for i in range(rows):
+        for j in range(cols):
+            for d in range(2):
+                G = Gp[i, j] if d == 0 else Gm[i, j]
+                live = stuck[d, i, j] == OK
+                h = G - wn[d, i, j] if P.write_noise > 0.0 else G
+                if live:
+                    lo = bnd[2 * d, i, j]
+                    hi = bnd[2 * d + 1, i, j]
+                    g0 = weight_zero(lo, hi, P)
+                    h = min(max(g0 + (h - g0) * aux[AUX_PLANES * d + AUX_DECAY, i, j], lo), hi)
+                    G = h
+                if P.write_noise > 0.0:
+                    w, ctr = normal_at(key, ctr)
+                    if live:
+                        G = h + P.write_noise * P.dP * w
+                        if P.write_noise_clip:
+                            G = min(max(G, P.g_min), P.g_max)
+                        wn[d, i, j] = G - h
+                if d == 0:
+                    Gp[i, j] = G
+                else:
+                    Gm[i, j] = G
+    return ctr
 
 
 # updates and the commit ------------------------------------------------------------------
@@ -454,7 +629,7 @@ def accumulate(acc, counters, post, pre, lr):
 def pulsed_update(state, post, pre, lr):
     Gp, Gm, stuck, step, bnd, wn = (state.Gp, state.Gm, state.stuck, state.step, state.bnd,
                                    state.wn)
-    age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
+    aux, age, rn, nu, nu_z = state.aux, state.age, state.rn, state.nu, state.nu_z
     P = state.params
     bits = state.bits
     idx = state.idx
@@ -500,10 +675,16 @@ def pulsed_update(state, post, pre, lr):
             if n:
                 coincidences += n
                 pairs += 1
-                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, i, j,
-                                  n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
+                ctr = _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, c, P, i,
+                                  j, n, (post[i] > 0.0) == (pre[j] > 0.0), key, ctr)
     if P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
-        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, c, P, key, ctr)
+        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, c, P, key,
+                             ctr)
+    elif P.refresh != 0 and P.refresh_write == REFRESH_AIHWKIT:
+        ctr = _refresh_columns(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, c, P, key,
+                               ctr, idx, state.ybuf)
+    if P.lifetime > 0.0:
+        ctr = _decay_sweep(Gp, Gm, stuck, bnd, wn, aux, P, key, ctr)
     state.rng[1] = ctr
     per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
     c[RNG_DRAWS] += np.int64(ctr - start)
@@ -578,6 +759,8 @@ def analog_update(state, post, pre, lr):
             mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
             mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
             written += 2
+    if P.lifetime > 0.0:
+        ctr = _decay_sweep(Gp, Gm, stuck, state.bnd, state.wn, state.aux, P, key, ctr)
     state.rng[1] = ctr
     state.counters[RNG_DRAWS] += np.int64(ctr - start)
     state.counters[DEVICES_WRITTEN] += written
@@ -593,6 +776,7 @@ def commit_accumulated(state):
     stuck = state.stuck
     bnd = state.bnd
     wn = state.wn
+    aux = state.aux
     step = state.step
     counters = state.counters
     age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
@@ -605,6 +789,8 @@ def commit_accumulated(state):
     # a write-verified two-sided pair on the pair's grid: one level of difference a step
     pair = not pulse and P.pair_grid == PAIR_GRID and dG > 0.0 and not one_sided
     unit = dG / P.g_per_w if pair else dw_min
+    if not pulse and P.pulse_step > 0.0 and dG > 0.0:  # write-verified whole levels, not
+        unit = dw_min / P.dP * dG  # pulses of pulse_step
     per_pair = 1 if P.set_only else 2
     key = state.rng[0]
     ctr = state.rng[1]
@@ -617,7 +803,7 @@ def commit_accumulated(state):
             if a == 0.0:
                 continue
             n = 0
-            if dG > 0.0:
+            if dG > 0.0 or pulse:  # pulses (of dP, on a grid of dG or on none)
                 n = int(a / unit)  # whole steps, toward zero; the rest stays
                 if n == 0:
                     continue
@@ -632,14 +818,14 @@ def commit_accumulated(state):
                     n = P.pulse_cap if n > 0 else -P.pulse_cap
                 written += per_pair
                 pulses += per_pair * abs(n)
-                ctr = _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z,
+                ctr = _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z,
                                        counters, P, i, j, abs(n), n > 0, key, ctr)
                 continue
             written += 2
             tp = Gp[i, j] + delta
             tm = Gm[i, j] - delta
             if one_sided:  # retarget both devices from the weight they hold
-                w = (Gp[i, j] - Gm[i, j]) / P.g_per_w + (n * dw_min if dG > 0.0 else a)
+                w = (Gp[i, j] - Gm[i, j]) / P.g_per_w + (n * unit if dG > 0.0 else a)
                 w = min(max(w, -P.w_max), P.w_max)
                 tp = P.g_min + max(w, 0.0) * P.g_per_w
                 tm = P.g_min + max(-w, 0.0) * P.g_per_w
@@ -657,8 +843,13 @@ def commit_accumulated(state):
             mark_written(age, rn, nu, nu_z, P, 0, i, j, tp)
             mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
     if pulse and P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
-        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, age, rn, nu, nu_z, counters, P,
-                             key, ctr)
+        ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters,
+                             P, key, ctr)
+    elif pulse and P.refresh != 0 and P.refresh_write == REFRESH_AIHWKIT:
+        ctr = _refresh_columns(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters,
+                               P, key, ctr, state.idx, state.ybuf)
+    if P.lifetime > 0.0:
+        ctr = _decay_sweep(Gp, Gm, stuck, bnd, wn, aux, P, key, ctr)
     state.rng[1] = ctr
     c = counters
     c[RNG_DRAWS] += np.int64(ctr - start)

@@ -562,7 +562,7 @@ def test_characterize_bad_input_is_one_line_exit_2(cli, argv, what, tmp_path):
 def test_characterize_figure_titles_and_a_preset_without_pulses(recwarn):
     from cml_edge.backends.crossbar.characterize import figure, pulses_text
 
-    assert pulses_text({"up": 1234, "down": None}) == "up 1,234, down never"
+    assert pulses_text({"up": 1234, "down": None}) == "up 1,234, down not within 20,000 pulses"
     pcm = characterize("pcm", devices=50, targets=[5.0, 20.0], times=[0.0, YEAR])
     titles = [a.get_title() for a in figure(pcm).axes]
     assert "pulse response\npulses to 90 % of the range: up" in " ".join(titles)

@@ -28,14 +28,21 @@ from collections.abc import Callable
 from typing import Any
 
 from cml_edge.backends.crossbar.aihwkit import runner
-from cml_edge.backends.crossbar.aihwkit.presets import PREFIX, aihwkit_params, describe
-from cml_edge.backends.crossbar.characterize import MAX_PULSES, characterize, time_text
+from cml_edge.backends.crossbar.aihwkit.presets import PREFIX, describe
+from cml_edge.backends.crossbar.characterize import (
+    MAX_PULSES,
+    characterize,
+    pulses_to_characterize,
+    time_text,
+)
 from cml_edge.backends.crossbar.config import make_config
 from cml_edge.errors import InputError
 
 REFERENCES = {"pcm": "PCMPresetDevice", "reram": "ReRamSBPresetDevice"}
 """The aihwkit device each project preset claims (config.py's preset docstring)."""
 TOLERANCE = 0.1
+REQUIRED = 0.9
+"""The verdict: at least this fraction of the rows within :data:`TOLERANCE`."""
 DEFAULT_DEVICES = 100_000
 
 
@@ -70,14 +77,14 @@ def compare(preset: str = "pcm", *, devices: int = DEFAULT_DEVICES, seed: int = 
     name = reference(preset)
     runner.require()
     config = make_config(preset, **fields)
-    if config.levels < 2:
+    if not pulses_to_characterize(config):
         raise InputError(f"preset {preset!r} has no conductance levels: nothing to pulse")
     ours = characterize(preset, devices=devices, seed=seed, progress=progress, **fields)
-    mapping = describe(PREFIX + name) if preset.startswith(PREFIX) else None
+    mapping = describe(PREFIX + name)  # the weight range, from the snapshot
     g_min, g_max = config.g_min, config.g_max
     targets = [p["g_target_us"] for p in ours["programming"]]
     directions = ["up"] if config.set_only else ["up", "down"]
-    w_lo, w_hi = _bounds(name)
+    w_lo, w_hi = mapping["map"]["w_min"], mapping["map"]["w_max"]
 
     def w_of(g: float) -> float:
         return w_lo + (g - g_min) / (g_max - g_min) * (w_hi - w_lo)
@@ -114,18 +121,12 @@ def compare(preset: str = "pcm", *, devices: int = DEFAULT_DEVICES, seed: int = 
                 for c in dict.fromkeys(r["check"] for r in rows)}
     return {"against": "aihwkit", "preset": preset, "settings": dict(fields),
             "devices": devices, "seed": seed, "tolerance": TOLERANCE,
+            "required": REQUIRED, "passed": within >= REQUIRED * len(rows),
             "aihwkit_device": name, "versions": theirs["versions"],
             "map": {"w_min": w_lo, "w_max": w_hi, "g_min_us": g_min, "g_max_us": g_max},
             "rows": rows, "within": within, "rows_total": len(rows), "by_check": by_check,
-            "aihwkit_preset": mapping, "project": ours,
+            "aihwkit_preset": mapping if preset.startswith(PREFIX) else None, "project": ours,
             "aihwkit": {"pulses": theirs, "inference": inference}}
-
-
-def _bounds(name: str) -> tuple[float, float]:
-    p = aihwkit_params(name)
-    if "error" in p:
-        raise InputError(p["error"])
-    return p["fields"]["w_min"], p["fields"]["w_max"]
 
 
 def _inference_rows(ours: dict[str, Any], theirs: dict[str, Any]) -> list[dict[str, Any]]:

@@ -5,14 +5,24 @@
 the environment ``scripts/aihwkit_env.sh`` builds; the project's environment never imports
 torch for it (:mod:`cml_edge.backends.crossbar.aihwkit.runner` starts it). Tasks:
 
-- ``params``: the dataclass fields of one of aihwkit's preset devices, by class name;
+- ``presets``: every preset device and unit cell aihwkit defines
+  (``aihwkit.simulator.presets.devices`` and ``.compounds``), each with its ``params``,
+  and the other device classes those modules import (``OneSidedUnitCell``,
+  ``ConstantStepDevice``...), which are not presets: the snapshot the project runs
+  ``--preset aihwkit:NAME`` from (:mod:`~cml_edge.backends.crossbar.aihwkit.snapshot`);
+- ``params``: the dataclass fields of one preset, by class name, its class lineage and
+  its weight granularity;
 - ``pulses``: single pulses and pulses to full range on ``AnalogTile(n, 1)`` tiles of one
-  device class: one coincidence per device and pulse (deterministic-implicit pulse trains of
-  length 1, learning rate above the device's weight granularity, so every probability is
-  clipped to 1), the weights read with ``get_weights`` before and after (the hidden weight
+  preset (a unit cell on ``UnitCellRPUConfig``): one coincidence per device and pulse
+  (deterministic-implicit pulse trains of length 1, learning rate above the device's
+  weight granularity, so every probability is clipped to 1; no ``post_update_step``: a
+  pulse without the decay an analog optimizer applies once per mini-batch), the weights
+  read with ``get_weights`` before and after (the hidden weight
   plus write noise where the device has it; programmed without it, as the project's
   characterisation programs noise-free: ``apply_write_noise_on_set`` off), and where the
   device has write noise the step of its hidden ``persistent_weights`` too;
+- ``population``: the device-to-device parameters aihwkit draws for n devices of a preset
+  (``get_hidden_parameters``: bounds, step scales, reference, decay scales), as quantiles;
 - ``inference``: ``PCMLikeNoiseModel``'s programming noise, drift coefficients, drift and
   accumulated read noise applied to conductances (the calls its inference tiles make);
 - ``bench``: seconds per CML training step and planning step on three tiles.
@@ -30,41 +40,58 @@ from dataclasses import asdict, is_dataclass
 from typing import Any
 
 
-def _device(name: str) -> Any:
+def _classes() -> tuple[dict[str, type], dict[str, type]]:
+    """The presets (dataclasses defined in aihwkit's preset modules, by name) and the other
+    device dataclasses those modules import (its device classes and unit cells)."""
     from aihwkit.simulator.presets import compounds, devices
 
+    presets: dict[str, type] = {}
+    others: dict[str, type] = {}
     for module in (devices, compounds):
-        cls = getattr(module, name, None)
-        if isinstance(cls, type) and is_dataclass(cls):
-            return cls()
-    raise KeyError(name)
+        for name, cls in vars(module).items():
+            if isinstance(cls, type) and is_dataclass(cls) and \
+                    (name.endswith("Device") or name.endswith("UnitCell")):
+                (presets if cls.__module__ == module.__name__ else others)[name] = cls
+    return presets, {k: v for k, v in others.items() if k not in presets}
+
+
+def _device(name: str) -> Any:
+    presets, _ = _classes()
+    if name not in presets:
+        raise KeyError(name)
+    return presets[name]()
+
+
+def _plain(v: Any) -> Any:
+    """A parameter as JSON: a dataclass or a dict as a dict, an enum as its str."""
+    if is_dataclass(v):
+        return {k: _plain(getattr(v, k)) for k in asdict(v)}
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, (bool, int, float, str)) or v is None:
+        return v
+    return str(v)
 
 
 def params(req: dict[str, Any]) -> dict[str, Any]:
-    """The preset's fields (nested dataclasses as dicts) and its class lineage."""
-    try:
-        dev = _device(req["name"])
-    except KeyError:
-        from aihwkit.simulator.presets import compounds, devices
-
-        names = sorted(n for m in (devices, compounds) for n in dir(m)
-                       if n.endswith("Device") or n.endswith("UnitCell"))
-        return {"error": f"aihwkit has no preset device {req['name']!r}",
-                "allowed": [n for n in names if is_dataclass(getattr(devices, n, None))
-                            or is_dataclass(getattr(compounds, n, None))]}
-
-    def plain(v: Any) -> Any:
-        if is_dataclass(v):
-            return {k: plain(x) for k, x in asdict(v).items()}
-        if isinstance(v, (list, tuple)):
-            return [plain(x) for x in v]
-        if isinstance(v, (bool, int, float, str)) or v is None:
-            return v
-        return str(v)
-
-    return {"name": req["name"], "lineage": [c.__name__ for c in type(dev).__mro__],
-            "fields": {k: plain(v) for k, v in vars(dev).items()},
+    """The preset's fields (nested dataclasses as dicts), its class lineage and its weight
+    granularity."""
+    dev = _device(req["name"])
+    return {"lineage": [c.__name__ for c in type(dev).__mro__],
+            "fields": {k: _plain(v) for k, v in vars(dev).items()},
             "granularity": granularity(dev)}
+
+
+def presets(req: dict[str, Any]) -> dict[str, Any]:
+    """Every preset's ``params``, and the other classes with their lineage and, for a unit
+    cell, how many devices it holds by default."""
+    found, others = _classes()
+    return {"presets": {n: params({"name": n}) for n in sorted(found)},
+            "classes": {n: {"lineage": [c.__name__ for c in cls.__mro__],
+                            "devices": len(getattr(cls(), "unit_cell_devices", []))}
+                        for n, cls in sorted(others.items())}}
 
 
 def granularity(dev: Any) -> float:
@@ -80,75 +107,117 @@ def granularity(dev: Any) -> float:
     return dev.dw_min
 
 
+def _lone(dev: Any) -> list[Any]:
+    """The pulsed devices of a preset: the device, or a unit cell's devices."""
+    return list(getattr(dev, "unit_cell_devices", [dev]))
+
+
 def _tile(dev: Any, n: int) -> Any:
-    from aihwkit.simulator.configs import SingleRPUConfig
+    from aihwkit.simulator.configs import SingleRPUConfig, UnitCellRPUConfig
     from aihwkit.simulator.parameters.enums import PulseType
     from aihwkit.simulator.tiles import AnalogTile
 
-    cfg = SingleRPUConfig(device=dev)
+    cell = hasattr(dev, "unit_cell_devices")
+    cfg = UnitCellRPUConfig(device=dev) if cell else SingleRPUConfig(device=dev)
     cfg.update.pulse_type = PulseType.DETERMINISTIC_IMPLICIT
     cfg.update.desired_bl = 1
     cfg.update.update_bl_management = False
     cfg.update.update_management = False
     tile = AnalogTile(n, 1, cfg)
     # a probability A x = sqrt(lr / granularity) x clipped to 1: one coincidence per device
-    tile.set_learning_rate(100.0 * dev.dw_min)
+    tile.set_learning_rate(100.0 * max(d.dw_min for d in _lone(dev)))
     return tile
+
+
+TILE_DEVICES = 4096
+"""The most devices of a point on one tile. aihwkit draws a tile's cycle-to-cycle and write
+noise normals from a table of 32,768 drawn once per tile (``src/rpucuda/rng.h``,
+``RNG::sampleGauss``, ``FIXED_LIST_SIZE``), so one tile's mean step carries its table's own
+mean, 1 / sqrt(32768) = 0.0055 of the noise's std, however many devices it holds; spread
+over tiles of 4,096 devices, the tables' error averages out with the devices' (1.125 times
+the variance of independent normals, not 1 + n / 32768)."""
 
 
 def pulses(req: dict[str, Any]) -> dict[str, Any]:
     """Per weight and direction the mean and std of one pulse's change; pulses that take
-    the mean device from w_min to 90 % of the range (up) and from w_max to 10 % (down)."""
+    the mean device from w_min to 90 % of the range (up) and from w_max to 10 % (down).
+    The devices of a point are spread over tiles of at most :data:`TILE_DEVICES`."""
     import torch
 
     torch.set_num_threads(1)
     torch.manual_seed(req["seed"])
     dev = _device(req["device"])
-    if hasattr(dev, "apply_write_noise_on_set"):  # programmed noise-free, as the project's
-        dev.apply_write_noise_on_set = False
+    for d in _lone(dev):  # programmed noise-free, as the project's
+        if hasattr(d, "apply_write_noise_on_set"):
+            d.apply_write_noise_on_set = False
     n = req["devices"]
+    sizes = [min(TILE_DEVICES, n - k) for k in range(0, n, TILE_DEVICES)]
     x = torch.ones(1, 1)
-    push = {"up": -torch.ones(1, n), "down": torch.ones(1, n)}
 
-    def column(w: float) -> Any:
-        tile = _tile(dev, n)
-        tile.set_weights(torch.full((n, 1), float(w)))
-        return tile
+    def column(w: float) -> list[Any]:
+        tiles = [_tile(dev, m) for m in sizes]
+        for tile, m in zip(tiles, sizes):
+            tile.set_weights(torch.full((m, 1), float(w)))
+        return tiles
 
-    def hidden(tile: Any) -> Any:  # a device with write noise keeps the weight it holds
-        h = tile.get_hidden_parameters().get("persistent_weights")  # apart from the noise
-        return None if h is None else h.flatten().double()
+    def pulse(tiles: list[Any], direction: str) -> None:
+        for tile, m in zip(tiles, sizes):
+            tile.update(x, (1.0 if direction == "down" else -1.0) * torch.ones(1, m))
+
+    def weights(tiles: list[Any]) -> Any:
+        return torch.cat([t.get_weights()[0][:, 0].double() for t in tiles])
+
+    def hidden(tiles: list[Any]) -> Any:  # a device with write noise keeps the weight it
+        h = [t.get_hidden_parameters().get("persistent_weights") for t in tiles]  # holds
+        return None if h[0] is None else torch.cat([v.flatten().double() for v in h])
 
     steps = []
     for w in req["weights"]:
         for direction in req["directions"]:
-            tile = column(w)
-            before, held = tile.get_weights()[0][:, 0].double(), hidden(tile)
-            tile.update(x, push[direction])
+            tiles = column(w)
+            before, held = weights(tiles), hidden(tiles)
+            pulse(tiles, direction)
             sign = -1.0 if direction == "down" else 1.0
-            step = sign * (tile.get_weights()[0][:, 0].double() - before)
+            step = sign * (weights(tiles) - before)
             row = {"w": w, "direction": direction, "mean": float(step.mean()),
                    "std": float(step.std()), "before_mean": float(before.mean()),
                    "wrong_way": float((step < 0).double().mean())}
             if held is not None:
-                moved = sign * (hidden(tile) - held)
+                moved = sign * (hidden(tiles) - held)
                 row.update(hidden_mean=float(moved.mean()), hidden_std=float(moved.std()))
             steps.append(row)
     full: dict[str, int | None] = {}
-    lo, hi = dev.w_min, dev.w_max
+    # a one-sided unit cell's weight runs from 0 (both devices reset) up its G+ device
+    lo, hi = (0.0, _lone(dev)[0].w_max) if hasattr(dev, "unit_cell_devices") else \
+        (dev.w_min, dev.w_max)
     for direction in req["full_range"]:
         start, goal = (lo, lo + 0.9 * (hi - lo)) if direction == "up" else \
             (hi, lo + 0.1 * (hi - lo))
-        tile = column(start)
+        tiles = column(start)
         full[direction] = None
         for k in range(1, req["max_pulses"] + 1):
-            tile.update(x, push[direction])
-            m = float(tile.get_weights()[0][:, 0].double().mean())
+            pulse(tiles, direction)
+            m = float(weights(tiles).mean())
             if (m >= goal) if direction == "up" else (m <= goal):
                 full[direction] = k
                 break
     return {"device": req["device"], "w_min": lo, "w_max": hi, "pulses": steps,
             "pulses_to_full_range": full}
+
+
+def population(req: dict[str, Any]) -> dict[str, Any]:
+    """Per hidden parameter of ``AnalogTile(n, 1)`` of the preset (a lone device), its
+    quantiles at ``req["quantiles"]`` and its mean."""
+    import torch
+
+    torch.set_num_threads(1)
+    tile = _tile(_device(req["device"]), req["devices"])
+    q = torch.tensor(req["quantiles"], dtype=torch.float64)
+    return {k: {"mean": float(v.double().mean()),
+                "quantiles": torch.quantile(v.flatten().double(), q).tolist()}
+            for k, v in tile.get_hidden_parameters().items()
+            if k in ("max_bound", "min_bound", "dwmin_up", "dwmin_down", "reference",
+                     "decay_scales", "reset_bias")}
 
 
 def inference(req: dict[str, Any]) -> dict[str, Any]:
@@ -239,7 +308,8 @@ def bench(req: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-TASKS = {"params": params, "pulses": pulses, "inference": inference, "bench": bench}
+TASKS = {"presets": presets, "params": params, "pulses": pulses, "population": population,
+         "inference": inference, "bench": bench}
 
 
 def main(argv: list[str]) -> int:
