@@ -62,12 +62,19 @@ SIZES: dict[str, Size] = {
     "eval_every": Size(1, 100_000_000, "training steps between curve points"),
     "drift_time": Size(0.0, MAX_IDLE_S, "seconds idle: up to 100 years, beyond any "
                                         "device's measured drift"),
+    "radius": Size(0.01, 30.0, "metres: a centimetre up to the side of the robot's 30 m "
+                               "arena"),
+    "mujoco_timestep": Size(1e-5, 0.032, "seconds: at most one 32 ms simulation step"),
+    "mujoco_friction": Size(1e-3, 10.0, "a sliding friction coefficient (rubber on a floor "
+                                        "is about 1)"),
+    "mujoco_kv": Size(1e-3, 1e3, "a velocity servo gain, N m s / rad"),
+    "mujoco_torque": Size(1e-3, 100.0, "N m: a mobile robot's wheel motors (0.2 modelled)"),
     "heading_scale": Size(1e-4, 1.0, "the heading's weight against positions scaled to "
                                      "about 1 (1/30, a cell, by default)"),
     "obs_scale": Size(1e-2, 1e4, "the length, in cells or metres, that maps positions to "
                                  "about -0.5..0.5: an arena side"),
 }
-"""The count, size and seed options' ranges, by option name (``dest``; ``command:dest``
+"""The count, size, seed and physical options' ranges, by option name (``dest``; ``command:dest``
 for a command whose option of that name counts something else), and the same numbers
 where a file gives them (``obs_scale``: a model's observation frame)."""
 

@@ -466,6 +466,9 @@ CASES: list[tuple[str, str]] = [
     ("emulate-set-devanagari", "emulate --backend int8 --set acc_bits=\u0968\u0966"),
     ("navigate-start-arabic-indic", "navigate {m} --start \u0661 0 --goal 3 3"),
     ("robot-train-heading-scale-huge", "robot train --heading-scale 1e300 --out {t}/r.npz"),
+    ("robot-evaluate-radius-huge", "robot evaluate {r} --radius 1e6"),
+    ("robot-train-mujoco-torque-huge", "robot train --sim mujoco --mujoco-torque 1e9 "
+                                       "--out {t}/r.npz"),
     # options that do nothing together
     ("emulate-clip-init-alone", "emulate --backend int8 --clip-init"),
     ("emulate-headroom-with-weight-exp", "emulate --backend int8 --weight-exp -10 "
