@@ -30,7 +30,7 @@ A seeded figure carries a marker, an HTML comment right above its table or sente
 - A timing figure is not seeded: it is listed, never run or checked.
 
 A value that matches only within the tolerance a seed promises across machines
-(``cml_edge/machines.py``: a figure computed on another CPU may round the other way in its
+(``cml_edge/core/machines.py``: a figure computed on another CPU may round the other way in its
 last printed digit) is reported as "matches (other CPU)".
 
 Prints one line per figure (match, MISMATCH, error, skipped when the command needs an
@@ -67,7 +67,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the checkout's package
-from cml_edge.machines import ABS, REL  # noqa: E402
+from cml_edge.core.machines import ABS, REL  # noqa: E402
 
 RUNNER = "import sys; from cml_edge.cli import main; sys.exit(main(sys.argv[1:]))"
 MARKER = re.compile(r"<!--\s*(figure|timing)\b(.*?)-->", re.S)
@@ -317,7 +317,7 @@ def formatted(value: Any, fmt: str) -> str:
 
 def readings(value: Any, fmt: str) -> list[str]:
     """How the page may print ``value``: as it is, then as the ends of the tolerance a
-    seed promises across machines (``cml_edge.machines``: a figure computed on another CPU
+    seed promises across machines (``cml_edge.core.machines``: a figure computed on another CPU
     may differ in its last bits, and so round the other way)."""
     exact = formatted(value, fmt)
     if not isinstance(value, float) or not math.isfinite(value):

@@ -3,7 +3,7 @@
 Rows are matched by what they measure (a system by its label; a scorecard row by device,
 scenario and part; a break point by device, knob and scenario), so two chips, two
 versions or two budgets compare figure by figure. A figure has changed when the two
-differ by more than a seed promises across machines (:mod:`cml_edge.machines`); each
+differ by more than a seed promises across machines (:mod:`cml_edge.core.machines`); each
 change shows the old value, the new one (highlighted) and the difference. A row only one
 report has is listed as added or removed.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from cml_edge.machines import ABS, REL
+from cml_edge.core.machines import ABS, REL
 from cml_edge.report.numbers import human
 from cml_edge.report.sections import Section
 from cml_edge.report.tables import Cell, Table

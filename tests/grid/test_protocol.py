@@ -1,6 +1,6 @@
 """The protocol's settings as one record: JSON both ways, checked when made, and the same
 result as the keyword arguments it replaced (tests/data/golden, generate.py there), as a
-seed promises it on any machine (:mod:`cml_edge.machines`)."""
+seed promises it on any machine (:mod:`cml_edge.core.machines`)."""
 
 import json
 from dataclasses import replace
@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from cml_edge.core.machines import differences
 from cml_edge.errors import InputError
 from cml_edge.grid.evaluation import Protocol, run_protocol
 from cml_edge.grid.maps import shipped_path
 from cml_edge.grid.training import TrainConfig
-from cml_edge.machines import differences
 
 GOLDEN = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" /
                      "protocol.json").read_text())

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from cml_edge.core.machines import differences
 from cml_edge.core.world import WORLDS, World, get_world
 from cml_edge.errors import InputError
-from cml_edge.machines import differences
 from cml_edge.scenarios import SCENARIOS, run_scenario
 from cml_edge.scenarios.runner import scenario_tasks
 from cml_edge.scenarios.tasks import TASK_FN, scenario_task

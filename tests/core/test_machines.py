@@ -1,9 +1,9 @@
-"""The cross-machine promise (cml_edge.machines): integers exact, floats within the
+"""The cross-machine promise (cml_edge.core.machines): integers exact, floats within the
 tolerance, keys in order."""
 
 import math
 
-from cml_edge.machines import ABS, REL, close, differences
+from cml_edge.core.machines import ABS, REL, close, differences
 
 
 def test_floats_match_within_the_tolerance_and_nothing_else_does():
