@@ -18,11 +18,12 @@ from cml_edge.cli.args import Progress, add_backend, backend_options, command_li
 from cml_edge.core.finite import check_finite, dumps
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text
+from cml_edge.sizes import ascii_number
 
 
 def _number(text: str) -> float:
     try:
-        v = float(text)
+        v = ascii_number(text, float)
     except ValueError:
         raise InputError(f"{text!r} is not a number") from None
     if not math.isfinite(v):

@@ -465,6 +465,7 @@ CASES: list[tuple[str, str]] = [
     ("train-arena-fullwidth", "train --arena \uff16 --out {t}/m.npz"),
     ("emulate-set-devanagari", "emulate --backend int8 --set acc_bits=\u0968\u0966"),
     ("navigate-start-arabic-indic", "navigate {m} --start \u0661 0 --goal 3 3"),
+    ("device-characterize-targets-arabic-indic", "device characterize --targets \u0665"),
     ("robot-train-heading-scale-huge", "robot train --heading-scale 1e300 --out {t}/r.npz"),
     ("robot-evaluate-radius-huge", "robot evaluate {r} --radius 1e6"),
     ("robot-train-mujoco-torque-huge", "robot train --sim mujoco --mujoco-torque 1e9 "
