@@ -36,8 +36,7 @@ class SynapticArray:
     indexed like ``counter_names``), implement ``from_float``, ``to_float``,
     ``options`` and ``config``, and are registered with their kernels by one
     :class:`~cml_edge.backends.device.DeviceSpec` (:func:`cml_edge.backends.register_device`).
-    Optional: ``elapse`` (drift), ``_restore`` (checks of a loaded state) and
-    ``_upgrade`` (a state dict of an older layout).
+    Optional: ``elapse`` (drift) and ``_restore`` (checks of a loaded state).
 
     Counters every device keeps (the contract, ``tests/backends/test_device_contract.py``):
     ``matvecs``, ``rmatvecs``, ``outer_updates`` and ``commits`` count the calls, one
@@ -153,7 +152,6 @@ class SynapticArray:
         backend = str(d.get("__backend__", ""))
         if backend != cls.name:
             raise InputError(f"state is of backend {backend!r}, expected {cls.name!r}")
-        d = cls._upgrade(dict(d))
         missing = [f for f in cls.State._fields if f not in d]
         if missing:
             raise InputError(f"state of backend {cls.name!r} lacks {', '.join(missing)}")
@@ -187,12 +185,6 @@ class SynapticArray:
     @classmethod
     def _restore(cls, state: Any, options: dict[str, Any]) -> SynapticArray:
         return cls(state)
-
-    @classmethod
-    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """``d`` in the current state layout, converted from an older one (files saved by
-        an earlier release). Default: unchanged."""
-        return d
 
 
 def _vector(x: np.ndarray, n: int) -> np.ndarray:

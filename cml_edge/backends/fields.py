@@ -17,9 +17,11 @@ know about the field, so that no device writes code for it:
   value does, as a derived quantity);
 - ``lo``, ``hi``, ``why``: the field's documented range (inclusive) and the one-line
   reason for it, from the physics or the arithmetic (levels and bits a device can hold,
-  noise as a fraction, conductances in micro-siemens). :func:`check_ranges` refuses a
-  value outside it, the command line's help shows it (:func:`range_text`), the device
-  pages document it and the property test of the devices draws from it.
+  noise as a fraction, conductances in micro-siemens); ``off``: one value outside the
+  range that is also allowed, meaning "no such stage" (a converter's 0 bits).
+  :func:`check_ranges` refuses any other value outside it, the command line's help shows
+  it (:func:`range_text`), the device pages document it and the property test of the
+  devices draws from it.
 
 A preset is a dict of field values; :func:`resolve` applies one (named by the
 ``preset`` option) and then the given fields. :func:`parse_setting` is the one parser of
@@ -50,13 +52,16 @@ def option(default: Any = MISSING, *, flag: str | None = None, help: str | None 
            metavar: str | None = None, choices: tuple[str, ...] | None = None,
            per_matrix: str | tuple[str, int] | None = None, kernel: bool = True,
            noun: str | None = None, lo: float | None = None, hi: float | None = None,
-           why: str | None = None) -> Any:
+           why: str | None = None, off: float | None = None) -> Any:
     """A dataclass field with the metadata of the module docstring (``noun`` names the
     values of an ``"each"`` per-matrix flag in its error: "1 or 3 exponents")."""
     if (lo is None) != (hi is None) or (lo is not None and (not lo <= hi or not why)):
         raise ValueError(f"a range needs lo <= hi and a reason (lo {lo!r}, hi {hi!r})")
+    if off is not None and (lo is None or lo <= off <= hi):
+        raise ValueError(f"an off value {off!r} needs a range that excludes it")
     meta = {"flag": flag, "help": help, "metavar": metavar, "choices": choices,
-            "per_matrix": per_matrix, "noun": noun, "lo": lo, "hi": hi, "why": why}
+            "per_matrix": per_matrix, "noun": noun, "lo": lo, "hi": hi, "why": why,
+            "off": off}
     meta = {k: v for k, v in meta.items() if v is not None}
     if not kernel:
         meta["kernel"] = False
@@ -163,10 +168,18 @@ def field_range(cls: type, name: str) -> tuple[float, float, str] | None:
     return (meta["lo"], meta["hi"], meta["why"]) if "lo" in meta else None
 
 
+def field_off(cls: type, name: str) -> float | None:
+    """The value outside its range that field ``name`` also allows (None: no such value)."""
+    return next(f.metadata for f in fields(cls) if f.name == name).get("off")
+
+
 def range_text(cls: type, name: str) -> str:
-    """``lo..hi`` of field ``name`` ('' without a range), numbers as %g."""
-    r = field_range(cls, name)
-    return "" if r is None else f"{r[0]:g}..{r[1]:g}"
+    """``lo..hi`` of field ``name`` ('' without a range), ``off or lo..hi`` when it has an
+    off value, numbers as %g."""
+    r, off = field_range(cls, name), field_off(cls, name)
+    if r is None:
+        return ""
+    return ("" if off is None else f"{off:g} or ") + f"{r[0]:g}..{r[1]:g}"
 
 
 def range_table(cls: type) -> str:
@@ -186,7 +199,8 @@ def check_ranges(config: Any, label: str) -> None:
             continue
         v = getattr(config, f.name)
         for x in v if isinstance(v, tuple) else (v,):
-            if x is not None and not f.metadata["lo"] <= x <= f.metadata["hi"]:
+            if x is not None and not f.metadata["lo"] <= x <= f.metadata["hi"] and \
+                    x != f.metadata.get("off"):
                 raise InputError(f"{label}{f.name} {x!r} is outside its range "
                                  f"{range_text(type(config), f.name)} ({f.metadata['why']})")
 
@@ -250,6 +264,6 @@ def _parse_scalar(kind: type | None, raw: str, name: str, whole: str) -> Any:
         raise InputError(f"--set {name}={whole!r}: not a valid {what}") from None
 
 
-__all__ = ["MATRICES", "check_ranges", "check_types", "coerce", "field_names", "field_range",
-           "matrix_value", "option", "parse_setting", "per_matrix_options", "resolve",
-           "range_table", "range_text", "scalar_kind"]
+__all__ = ["MATRICES", "check_ranges", "check_types", "coerce", "field_names", "field_off",
+           "field_range", "matrix_value", "option", "parse_setting", "per_matrix_options",
+           "resolve", "range_table", "range_text", "scalar_kind"]

@@ -100,7 +100,7 @@ def add_parsers(sub) -> None:
 def _report_folders(args: argparse.Namespace) -> tuple[dict[str, Any], str] | None:
     """Check --out / --render and --compare before any work; the report to compare with
     and its folder (None without --compare)."""
-    from cml_edge.report import load_report
+    from cml_edge.report import check_report_folder, load_report
 
     if (args.out is None) == (args.render is None):
         raise InputError("give one of --out FOLDER (run the report) and --render FOLDER "
@@ -110,6 +110,7 @@ def _report_folders(args: argparse.Namespace) -> tuple[dict[str, Any], str] | No
     out, flag = (args.out, "--out") if args.out else (args.render, "--render")
     writable_folder(out, flag)
     writable_folder(Path(out).parent, f"{flag}'s folder")  # the report is renamed there
+    check_report_folder(out, flag)
     if args.compare is None:
         return None
     return load_report(args.compare, "--compare"), args.compare

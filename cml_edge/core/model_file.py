@@ -4,7 +4,9 @@ A model is one ``.npz`` (no pickles) holding ``format`` ("cml-edge-model"),
 ``format_version``, ``meta`` (JSON: the CML config, the backend, how it was
 trained) and each array's ``state_dict`` under ``W_q/``, ``W_k/``, ``W_v/``.
 Loading checks all of it and raises :class:`ModelFileError` with one line naming
-what is wrong. Files are written atomically (:func:`cml_edge.io.files.atomic_write`).
+what is wrong; a file of the one older layout is converted first
+(:mod:`cml_edge.core.legacy`). Files are written atomically
+(:func:`cml_edge.io.files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 
 from cml_edge.backends import array_from_state_dict
 from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.legacy import upgrade
 from cml_edge.errors import InputError, PluginError
 from cml_edge.io.files import atomic_write
 from cml_edge.io.reading import MiB, npz_members
@@ -101,7 +104,8 @@ def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
         if not isinstance(meta, dict):
             raise TypeError(f"its record is a {type(meta).__name__}, not an object")
         training = _training(meta.get("training", {}))
-        cml = cml_from_arrays(data, CMLConfig.from_dict(meta["config"]), meta["backend"])
+        cml = cml_from_arrays(upgrade(data, MATRICES), CMLConfig.from_dict(meta["config"]),
+                              meta["backend"])
     except PluginError as exc:  # a device of a plugin that is not loaded
         raise ModelFileError(f"{str(path)!r}: {exc}") from None
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:

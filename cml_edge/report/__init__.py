@@ -6,7 +6,8 @@ summaries can import the report's number formatting and verdicts without it.
 
 from typing import Any
 
-__all__ = ["build_report", "load_report", "render_report", "write_report"]
+__all__ = ["build_report", "check_report_folder", "load_report", "render_report",
+           "write_report"]
 
 
 def __getattr__(name: str) -> Any:

@@ -34,6 +34,7 @@ from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
+from cml_edge.engine.runs import RUN_FILE
 from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
@@ -49,9 +50,10 @@ from cml_edge.grid.evaluation import (
 )
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.training import TrainConfig
-from cml_edge.io.files import atomic_folder, display_path
+from cml_edge.io.files import atomic_folder, display_path, own_folder
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
+from cml_edge.report.figures import FIGURE_FILES
 from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
 from cml_edge.scenarios.registry import BUDGETS
 
@@ -318,6 +320,18 @@ def load_report(folder: str | Path, flag: str = "--render") -> dict[str, Any]:
         raise InputError(f"{flag} {str(folder)!r}: report.json is not a report of schema "
                          f"{SCHEMA_VERSION} (cml-edge report writes one)")
     return report
+
+
+REPORT_NAMES = frozenset({"report.json", "report.md", "report.html", RUN_FILE, "tasks",
+                          *FIGURE_FILES})
+"""What a report folder holds: the pages, the figures and, while the report runs, its run
+files. :func:`write_report` replaces the folder whole."""
+
+
+def check_report_folder(folder: str | Path, flag: str) -> None:
+    """Refuse (before any work) a folder that holds anything a report does not write:
+    the finished report replaces it whole."""
+    own_folder(Path(folder), set(REPORT_NAMES), flag)
 
 
 def write_report(report: dict[str, Any], out: str | Path,

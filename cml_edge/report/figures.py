@@ -11,6 +11,10 @@ import numpy as np
 
 from cml_edge.report.numbers import human
 
+FIGURE_FILES = ("scorecard.png", "breakpoints.png", "recovery.png", "convergence.png",
+                "accuracy.png", "sweeps.png", "memory_traffic.png", "trajectories.png")
+"""Every figure a report folder may hold (a report draws those its data has)."""
+
 
 def _columns(rows: list[dict[str, Any]]) -> list[tuple[str, str]]:
     """The (scenario, part) columns of the scorecard, in the order they were run."""
@@ -97,6 +101,7 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
     cml = [s for s in report["systems"] if s["kind"] == "cml"]
 
     def save(fig, name: str, title: str) -> None:
+        assert name in FIGURE_FILES, name
         fig.savefig(folder / name, dpi=110, bbox_inches="tight")
         plt.close(fig)
         files[title] = name

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from cml_edge.backends import DEVICES
-from cml_edge.backends.fields import field_range, range_table, scalar_kind
+from cml_edge.backends.fields import field_off, field_range, range_table, scalar_kind
 from cml_edge.cli import limits
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.errors import InputError
@@ -44,7 +44,8 @@ def test_both_ends_of_every_range_are_accepted_and_beyond_refused(device):
         if r is None or f.name in ("acc_bits", "g_min", "g_max", "levels"):
             continue  # ranges that also depend on another field: below
         lo, hi, _ = r
-        for ok in (lo, hi):
+        off = field_off(cls, f.name)
+        for ok in (lo, hi) if off is None else (lo, hi, off):
             spec.make_config(**base, **{f.name: ok})
         step = 1 if scalar_kind(cls, f.name) is int else max(abs(hi), 1.0) * 1e-6
         for bad in (lo - step, hi + step):
@@ -137,12 +138,13 @@ def test_the_estimate_knows_each_command_s_own_sizes():
 def value_in(cls, name):
     """A value of field ``name`` from its documented range: an end or a point inside."""
     lo, hi, _ = field_range(cls, name)
+    ends = [lo, hi] if field_off(cls, name) is None else [lo, hi, field_off(cls, name)]
     if scalar_kind(cls, name) is int:
-        return st.sampled_from([int(lo), int(hi)]) | st.integers(int(lo), int(hi))
+        return st.sampled_from([int(x) for x in ends]) | st.integers(int(lo), int(hi))
     inside = st.floats(lo, hi, allow_nan=False)
     if lo > 0:
         inside = st.floats(np.log(lo), np.log(hi)).map(lambda x: min(max(np.exp(x), lo), hi))
-    return st.sampled_from([lo, hi]) | inside
+    return st.sampled_from(ends) | inside
 
 
 @st.composite

@@ -16,9 +16,7 @@ programmed with. The reads, updates, noise, drift and faults are the kernels'
 
 from __future__ import annotations
 
-import json
 import math
-import types
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -27,14 +25,12 @@ from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.crossbar.codes import AUX_PLANES, N_COUNTERS
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
-    NEW_FIELDS,
     CrossbarParams,
     DeviceConfig,
     crossbar_params,
     make_config,
 )
 from cml_edge.backends.crossbar.time import xbar_elapse, xbar_program
-from cml_edge.backends.params import record_names, record_to_array
 from cml_edge.errors import InputError
 from cml_edge.jit.gauss import BLOCK_PAD
 from cml_edge.jit.rng import stream_key
@@ -178,51 +174,23 @@ class CrossbarArray(SynapticArray):
     @classmethod
     def _template(cls, options: dict[str, Any], counters_shape: tuple[int, ...]) -> Any:
         return cls.from_float(np.zeros((1, 1)), seed=0, index=0,
-                              **saved_options(options)).state
+                              **options).state
 
     @classmethod
     def _restore(cls, state: CrossbarState, options: dict[str, Any]) -> CrossbarArray:
-        options = saved_options(options)
+        options = dict(options)
         preset = options.pop("preset", cls.DEFAULT_PRESET)
         state = state._replace(Gp=_laid_out(state.Gp), Gm=_laid_out(state.Gm),
                                acc=laid_out(np.asarray(state.acc, dtype=np.float64)))
-        sizes = {f: a.shape for f, a in _scratch(*state.Gp.shape).items()}
-        for f, shape in (*sizes.items(), ("rng", (2,)), ("alpha", (1,)), ("elapsed", (1,))):
+        shapes = {f: a.shape for f, a in new_fields(state.params, *state.Gp.shape).items()}
+        for f, shape in (*shapes.items(), ("rng", (2,))):
             if getattr(state, f).shape != shape:
                 raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
                                  f"expected {shape}")
-        for f, k in (("step", 4), ("nu", 2), ("age", 2), ("stuck", 2), ("nu_z", 2),
-                     ("bnd", 4), ("wn", 2), ("rn", 2), ("aux", 2 * AUX_PLANES)):
-            if getattr(state, f).shape != (k, *state.Gp.shape):
-                raise InputError(f"field {f!r} has shape {getattr(state, f).shape}, "
-                                 f"expected {(k, *state.Gp.shape)}")
         config = make_config(preset, **options)
         if crossbar_params(config, state.params.w_max) != state.params:
             raise InputError("crossbar parameters do not match the saved options")
         return cls(state, config, preset)
-
-    @classmethod
-    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """A state saved before the parameter record (no ``__params__``): ``params`` was
-        one float64 vector of 32 hand-numbered slots, :data:`LEGACY_PARAMS` in that order,
-        with the run-time alpha and elapsed among them. They move to their state arrays;
-        the record is rebuilt from the saved options and the saved w_max, and the old
-        vector must equal that record's legacy view, or the file is refused."""
-        if "__params__" in d or "params" not in d:
-            return _upgrade_scratch(_upgrade_calibrated(d))
-        old = np.asarray(d["params"])
-        if old.dtype != np.float64 or old.shape != (len(LEGACY_PARAMS),):
-            raise InputError(f"field 'params' has shape {old.shape}, expected "
-                             f"({len(LEGACY_PARAMS)},)")
-        slots = dict(zip(LEGACY_PARAMS, old.tolist()))
-        options = saved_options(json.loads(str(d["__options__"])))
-        preset = options.pop("preset", cls.DEFAULT_PRESET)
-        record = crossbar_params(make_config(preset, **options), slots["w_max"])
-        if not np.array_equal(legacy_params(record, slots["alpha"], slots["elapsed"]), old):
-            raise InputError("crossbar parameters do not match the saved options")
-        return _upgrade_scratch(_upgrade_calibrated(
-            {**d, "params": record_to_array(record), "__params__": record_names(record),
-             "alpha": np.array([slots["alpha"]]), "elapsed": np.array([slots["elapsed"]])}))
 
     # the seam extras ----------------------------------------------------------------
     def to_float(self) -> np.ndarray:
@@ -266,83 +234,25 @@ def _without_acc(state: CrossbarState) -> CrossbarState:
 
 
 def _new_state(shape: tuple[int, int], params: Any, key: Any) -> CrossbarState:
-    rows, cols = shape
-    order = "F"
-    return CrossbarState(
-        Gp=np.zeros(shape, order=order), Gm=np.zeros(shape, order=order),
+    return CrossbarState(params=params, rng=np.array([key, 0], dtype=np.uint64),
+                         **new_fields(params, *shape))
+
+
+def new_fields(params: Any, rows: int, cols: int) -> dict[str, np.ndarray]:
+    """Every array of a fresh (rows, cols) state but ``rng``: devices at 0 with unit steps,
+    no drift, age, faults, noise offsets or per-device extras, the nominal bounds, a
+    drift factor of 1, counters at 0 and fresh work space."""
+    shape = (rows, cols)
+    return dict(
+        Gp=np.zeros(shape, order="F"), Gm=np.zeros(shape, order="F"),
         acc=laid_out(np.zeros(shape)), step=np.ones((4, rows, cols)),
         nu=np.zeros((2, rows, cols)), age=np.zeros((2, rows, cols)),
-        stuck=np.zeros((2, rows, cols), np.int8), params=params, alpha=np.ones(1),
-        elapsed=np.zeros(1), rng=np.array([key, 0], dtype=np.uint64),
+        stuck=np.zeros((2, rows, cols), np.int8), alpha=np.ones(1), elapsed=np.zeros(1),
         nu_z=np.zeros((2, rows, cols)), bnd=_nominal_bounds(params, rows, cols),
         wn=np.zeros((2, rows, cols)), rn=np.zeros((2, rows, cols)),
         aux=np.zeros((2 * AUX_PLANES, rows, cols)),
         counters=np.zeros(N_COUNTERS, np.int64), **_scratch(rows, cols),
     )
-
-
-def saved_options(options: dict[str, Any]) -> dict[str, Any]:
-    """Saved options with every calibrated-physics field (:data:`NEW_FIELDS`) that they
-    lack at its default (off): a file saved before those fields restores with the physics
-    it was saved with, not with what its preset names now (``pcm`` then is
-    ``pcm-symmetric`` now)."""
-    options = dict(options)
-    defaults = DeviceConfig()
-    for name in NEW_FIELDS:
-        options.setdefault(name, getattr(defaults, name))
-    return options
-
-
-def _upgrade_calibrated(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """A state saved before the calibrated-physics fields: the parameter record gains the
-    new fields (from the completed options, with the saved w_max; the saved fields must
-    agree), the new state arrays start at their neutral values (no bound spread, no noise
-    offsets, no per-device extras) and the new counters at 0."""
-    if "params" not in d or "__params__" not in d or "__options__" not in d:
-        return d
-    if "Gp" not in d or "counters" not in d or np.asarray(d["Gp"]).ndim != 2:
-        return d  # refused by the loader
-    names = json.loads(str(d["__params__"]))
-    if not isinstance(names, list) or np.asarray(d["params"]).shape != (len(names),):
-        raise InputError(f"field 'params' has shape {np.asarray(d['params']).shape} for "
-                         f"{len(names) if isinstance(names, list) else '?'} field names")
-    out = dict(d)
-    if names != list(CrossbarParams._fields):
-        old = dict(zip(names, np.asarray(d["params"]).tolist()))
-        if "w_max" not in old or set(old) - set(CrossbarParams._fields):
-            return d  # refused by the loader, naming the fields it expected
-        options = saved_options(json.loads(str(d["__options__"])))
-        preset = options.pop("preset", DEFAULT_PRESET)
-        record = crossbar_params(make_config(preset, **options), old["w_max"])
-        if any(getattr(record, k) != v for k, v in old.items()):
-            raise InputError("crossbar parameters do not match the saved options")
-        out.update(params=record_to_array(record), __params__=record_names(record))
-    elif all(f in d for f in ("nu_z", "bnd", "wn", "rn", "aux")):
-        return d  # the current layout
-    else:
-        record = dict(zip(names, np.asarray(d["params"]).tolist()))
-        record = types.SimpleNamespace(g_min=record.get("g_min", 0.0),
-                                       g_max=record.get("g_max", 1.0))
-    rows, cols = np.asarray(d["Gp"]).shape
-    counters = np.asarray(d["counters"])
-    out.setdefault("nu_z", np.zeros((2, rows, cols)))
-    out.setdefault("bnd", _nominal_bounds(record, rows, cols))
-    out.setdefault("wn", np.zeros((2, rows, cols)))
-    out.setdefault("rn", np.zeros((2, rows, cols)))
-    out.setdefault("aux", np.zeros((2 * AUX_PLANES, rows, cols)))
-    if counters.ndim == 1 and counters.shape[0] < N_COUNTERS:
-        out["counters"] = np.concatenate(
-            [counters, np.zeros(N_COUNTERS - counters.shape[0], counters.dtype)])
-    return out
-
-
-def _upgrade_scratch(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """A state saved before one of the work-space fields (:data:`SCRATCH`) existed gets it
-    fresh: no kernel reads what such a field held."""
-    if "Gp" not in d or np.asarray(d["Gp"]).ndim != 2:
-        return d  # refused by the loader
-    missing = {f: a for f, a in _scratch(*np.asarray(d["Gp"]).shape).items() if f not in d}
-    return {**d, **missing}
 
 
 def _nominal_bounds(params: Any, rows: int, cols: int) -> np.ndarray:
@@ -352,24 +262,4 @@ def _nominal_bounds(params: Any, rows: int, cols: int) -> np.ndarray:
     return b
 
 
-# the layout before the parameter record ---------------------------------------------------
-LEGACY_PARAMS = (
-    "g_min", "g_max", "dG", "w_max", "g_per_w", "dw_min", "update", "commit", "bl_max",
-    "dw_min_std", "bounds", "prog_noise", "prog_c0", "prog_c1", "prog_c2", "prog_gref",
-    "read_noise", "out_noise", "dac_step", "adc_step", "adc_bound", "drift_t0",
-    "drift_compensation", "alpha", "elapsed", "dw_min_dtod", "up_down", "up_down_dtod",
-    "drift_nu", "drift_nu_std", "stuck_low", "stuck_high",
-)
-"""The 32 slots of the float64 ``params`` vector of files saved before the record (the old
-``P_*`` indices 0..31, in order). Slot ``adc_bound`` held inf when there was no ADC."""
-
-
-def legacy_params(record: Any, alpha: float, elapsed: float) -> np.ndarray:
-    """The old 32-slot vector of ``record`` (:data:`LEGACY_PARAMS`)."""
-    values = {**record._asdict(), "alpha": alpha, "elapsed": elapsed}
-    if record.adc_bits <= 0:
-        values["adc_bound"] = math.inf
-    return np.array([float(values[name]) for name in LEGACY_PARAMS])
-
-
-__all__ = ["LEGACY_PARAMS", "CrossbarArray", "CrossbarState", "legacy_params"]
+__all__ = ["CrossbarArray", "CrossbarState", "new_fields"]

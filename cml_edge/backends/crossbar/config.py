@@ -124,7 +124,7 @@ LEVELS = ("0 = continuous, else 2..4096: the most levels shown in one analog dev
 W_MAX = ("weight units; 0 = automatic, else >= 1e-3 (the CML's learned weights are ~1e-3 "
          "and more: a smaller swing clips them all)")
 EXP_Z = "z = 2 a (u - c) + b within +-30 and gamma <= 20 keep e^(gamma z) finite"
-BITS = "0 = ideal, else 2..24 bits (no converter resolves more)"
+BITS = "bits a converter resolves, 24 at most (none resolves more); 0 = ideal"
 NU = "a drift exponent (PCM measures 0.005..0.1)"
 FRACTION = "a fraction of the conductance range"
 REL_STD = "a relative std"
@@ -228,9 +228,9 @@ class DeviceConfig:
                               why="a std in normalised output units (the ADC's bound is 12)")
     """Additive noise at each output before the ADC, std in normalised units
     (aihwkit ``out_noise``; fresh on every read)."""
-    dac_bits: int = option(0, lo=0, hi=24, why=BITS)
+    dac_bits: int = option(0, lo=2, hi=24, off=0, why=BITS)
     """DAC bits on inputs scaled by max|x| (0 = ideal)."""
-    adc_bits: int = option(0, lo=0, hi=24, why=BITS)
+    adc_bits: int = option(0, lo=2, hi=24, off=0, why=BITS)
     """ADC bits on outputs (0 = ideal)."""
     adc_bound: float = option(12.0, lo=0.001, hi=1000.0, why="normalised output units (aihwkit 12)")
     """ADC range, normalised units (aihwkit ``out_bound``)."""
@@ -249,8 +249,8 @@ class DeviceConfig:
 
     # calibrated device physics. Every field below is off at its default, so
     # a config that does not name it behaves, draw for draw, as before these fields
-    # existed; a file saved before them restores with these defaults, whatever its
-    # preset says now (array.py, ``_restore``). -------------------------------------
+    # existed; a model file saved before them restores with these defaults, whatever
+    # its preset says now (cml_edge/core/legacy.py). ----------------------------------
     mapping: str = option("two-sided", choices=MAPPINGS)
     """Weight to conductance map of a pair (both in [g_min, g_max]). ``two-sided`` (earlier
     releases; CrossSim ``TWO_SIDED``): both devices at the centre for w = 0, moving
@@ -602,9 +602,9 @@ NEW_FIELDS = ("mapping", "set_only", "refresh", "refresh_upper", "refresh_lower"
               "reference_std", "subtract_symmetry_point", "lifetime", "lifetime_dtod",
               "apply_write_noise_on_set", "refresh_read_step", "reset", "reset_dtod",
               "reset_std")
-"""The calibrated-physics fields, added after the first releases. A state saved before
+"""The calibrated-physics fields, added after the first releases. A model file saved before
 them has none in its options: it restores with their defaults (every one off), not with
-its preset's present values."""
+its preset's present values (:mod:`cml_edge.core.legacy`)."""
 
 
 def _validate(c: DeviceConfig) -> None:
@@ -625,11 +625,6 @@ def _validate(c: DeviceConfig) -> None:
                          "allowed levels >= 2, or pulse_step > 0)")
     if not 1 <= c.bl_max <= 31:
         raise InputError(f"crossbar bl_max {c.bl_max!r} is not allowed (allowed: 1..31)")
-    for name in ("dac_bits", "adc_bits"):
-        v = getattr(c, name)
-        if v != 0 and not 2 <= v <= 24:
-            raise InputError(f"crossbar {name} {v!r} is not allowed (allowed: 0 = ideal, "
-                             "or 2..24)")
     for name in ("stuck_low", "stuck_high"):
         v = getattr(c, name)
         if not 0.0 <= v <= 1.0:

@@ -15,7 +15,6 @@ how they do on the paper's protocol is measured in docs/devices/fixed.md.
 
 from __future__ import annotations
 
-import json
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -188,32 +187,5 @@ class FixedArray(SynapticArray):
             raise InputError("negative counters")
         return cls(state._replace(mantissa=laid_out(state.mantissa), acc=laid_out(state.acc)))
 
-    @classmethod
-    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """A state saved before the parameter record (no ``__params__``): ``params`` was
-        one int64 vector of 14 hand-numbered slots, :data:`LEGACY_PARAMS` in that order.
-        The record's other fields are the widths those slots imply (act_bits from
-        act_qmax, acc_bits from acc_max, mac_bits from mac_max); ``_restore`` then checks
-        the whole record against the saved options, as it checks a current file."""
-        if "__params__" in d or "params" not in d:
-            return d
-        old = np.asarray(d["params"])
-        if old.dtype != np.int64 or old.shape != (len(LEGACY_PARAMS),):
-            raise InputError(f"field 'params' has shape {old.shape}, expected "
-                             f"({len(LEGACY_PARAMS)},)")
-        slots = dict(zip(LEGACY_PARAMS, old.tolist()))
-        widths = {"act_bits": slots["act_qmax"].bit_length() + 1,
-                  "acc_bits": slots["acc_max"].bit_length() + 1,
-                  "mac_bits": slots["mac_max"].bit_length() + 1}
-        values = {**slots, **widths}
-        record = np.array([values[name] for name in FixedParams._fields], dtype=np.int64)
-        return {**d, "params": record, "__params__": np.array(json.dumps(FixedParams._fields))}
 
-
-LEGACY_PARAMS = ("exp", "bits", "qmax", "rounding", "act_qmax", "frac", "acc_max", "mac_max",
-                 "mv_check", "rmv_check", "mv_shift", "rmv_shift", "strict", "lr_bits")
-"""The 14 slots of the int64 ``params`` vector of files saved before the record (the old
-``P_*`` indices 0..13, in order)."""
-
-
-__all__ = ["LEGACY_PARAMS", "FixedArray", "FixedState", "SaturationError"]
+__all__ = ["FixedArray", "FixedState", "SaturationError"]

@@ -26,7 +26,6 @@ gives what Lava's ``Dense`` needs to hold the same weights.
 
 from __future__ import annotations
 
-import json
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -257,24 +256,6 @@ class Loihi2Array(SynapticArray):
                 "lsb_truncated": int(np.count_nonzero(truncated != w))}
 
     # persistence ------------------------------------------------------------------
-    @classmethod
-    def _upgrade(cls, d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """A state saved before the ``traces`` field: its parameter record gains it, 0
-        (``nearest``, the one formation there was), where the record now holds it; the
-        options lack it and so read as ``nearest``."""
-        if "params" not in d or "__params__" not in d:
-            return d
-        try:
-            stored = json.loads(str(d["__params__"]))
-        except json.JSONDecodeError:
-            return d  # refused by the loader
-        fields = list(Loihi2Params._fields)
-        a = np.asarray(d["params"])
-        if stored != [f for f in fields if f != "traces"] or a.shape != (len(stored),):
-            return d
-        return {**d, "params": np.insert(a, fields.index("traces"), 0).astype(a.dtype),
-                "__params__": np.array(json.dumps(fields))}
-
     @classmethod
     def _restore(cls, state: Loihi2State, options: dict[str, Any]) -> Loihi2Array:
         config = make_config(**options)

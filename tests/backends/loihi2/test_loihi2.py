@@ -796,14 +796,14 @@ def test_the_mapping_survives_a_save_and_older_files_read_as_initial():
         assert array_from_state_dict(d).mapping == "initial"
 
 
-def test_the_traces_survive_a_save_and_older_files_read_as_nearest():
+def test_the_traces_survive_a_save_and_a_record_without_them_is_refused():
     W = np.random.default_rng(8).normal(0, 0.1, (4, 3))
     for traces in TRACES:
         arr = Loihi2Array.from_float(W, seed=0, index=2, traces=traces)
         d = arr.state_dict()
         back = array_from_state_dict(d)
         assert back.options()["traces"] == traces and back.state.params == arr.state.params
-    # a file saved before the field: no "traces" in its options or its parameter record
+    # a state without the field (no "traces" in its options or its parameter record)
     options = json.loads(str(d["__options__"]))
     del options["traces"]
     names = json.loads(str(d["__params__"]))
@@ -811,9 +811,8 @@ def test_the_traces_survive_a_save_and_older_files_read_as_nearest():
     old = {**d, "__options__": np.array(json.dumps(options)),
            "params": np.delete(d["params"], at), "__params__": np.array(json.dumps(
                names[:at] + names[at + 1:]))}
-    back = array_from_state_dict(old)
-    assert back.options()["traces"] == "nearest"
-    assert back.state.params == Loihi2Array.from_float(W, seed=0, index=2).state.params
+    with pytest.raises(InputError, match="traces"):
+        array_from_state_dict(old)
 
 
 def test_the_default_schedule_is_the_one_lava_runs(cli, tmp_path):
