@@ -16,6 +16,7 @@ from cml_edge.cli import limits
 from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
 from cml_edge.cli.output import labelled, num, plural, secs, table
 from cml_edge.errors import InputError
+from cml_edge.experiments import EXPERIMENTS
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.io.files import writable_folder
 from cml_edge.robot.sim import SIMS
@@ -25,8 +26,7 @@ def add_parsers(sub) -> None:
     """The experiment, report and benchmark commands."""
     p = sub.add_parser("sweep", help="run an experiment's (configuration x seed) tasks on a "
                        "local process pool or a Dask cluster; resumable")
-    p.add_argument("experiment", help="convergence, hyperparams, exploration, generalization, "
-                   "obstacles, maps or backends")
+    p.add_argument("experiment", help=", ".join(EXPERIMENTS[:-1]) + " or " + EXPERIMENTS[-1])
     p.add_argument("--out", required=True, metavar="FOLDER",
                    help="folder: tasks/ (resumable), results.json, .csv and the figure")
     p.add_argument("--workers", type=positive_int, default=None,

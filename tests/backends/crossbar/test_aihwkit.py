@@ -44,9 +44,12 @@ def test_against_refuses_a_preset_without_an_aihwkit_device(cli):
 
 @needs_aihwkit
 def test_against_pcm_table_json_and_plot(cli, tmp_path):
+    # aihwkit's side is unseeded (its tiles draw from their own generators), a fresh draw
+    # every run: at 400 devices 122 to 125 of the 136 rows were within 10 % in four runs,
+    # about the 90 % required (122.4); at 2,000, 132.
     png = tmp_path / "pcm.png"
     code, out, err = cli("device", "characterize", "--against", "aihwkit", "--preset", "pcm",
-                         "--devices", "400", "--json", "--plot", png)
+                         "--devices", "2000", "--json", "--plot", png)
     assert code == 0, err
     r = json.loads(out)
     assert r["aihwkit_device"] == "PCMPresetDevice" and r["versions"]["aihwkit"] == "1.1.0"
