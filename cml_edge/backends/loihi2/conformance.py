@@ -11,8 +11,9 @@ What is compared (:func:`verify`):
 - reads: for W_q, W_k, W_v and W_v^T (planning's transposed read), one-hot and random
   vectors become graded-spike payloads as the emulation forms them; Lava's ``Dense``, built
   from the export (:meth:`~cml_edge.backends.loihi2.array.Loihi2Array.to_lava`), gives
-  ``a_out`` and its ``LIF`` the 24-bit ``u``; each is compared with the emulation's, and
-  the emulation's float read with u 2^(e - scale_exp - 6);
+  ``a_out`` and its ``LIF`` the 24-bit ``u``; each is compared with the emulation's (the
+  dot product held in int32 as Lava's ``Dense`` holds it, wrapped past 2^31 and counted
+  as ``dense_wraps``), and the emulation's float read with u 2^(e - scale_exp - 6);
 - learning: K updates of the CML's shape (a one-hot pre, the post a difference of two of
   the matrix's columns, the model's learning rate) become the rule literal and traces as the
   emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`; with
@@ -125,10 +126,11 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
     W = arr.state.w.astype(np.int64)
     W = W.T if transposed else W
     pay, scales = _payloads(arr, X)
-    same_a = same_u = same_read = wraps = 0
+    same_a = same_u = same_read = wraps = dense_wraps = 0
     for t, x in enumerate(X):
         sums = W @ pay[t]
-        a = np.array([s >> -p.exp if p.exp < 0 else s << p.exp for s in sums])
+        a = np.array([kern.dense_output(int(s), int(p.exp)) for s in sums])
+        dense_wraps += int(np.count_nonzero((sums < -(1 << 31)) | (sums >= 1 << 31)))
         mine = [kern.neuron_input(int(s), int(p.exp)) for s in sums]
         wraps += sum(w for _, w in mine)
         same_a += bool((a == a_out[t]).all())
@@ -138,7 +140,7 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
                              int(scales[t]) - int(p.scale_exp) - kern.ACT_SHIFT)
         same_read += bool((read == lava_read).all())
     return {"vectors": len(X), "a_out_equal": same_a, "u_equal": same_u,
-            "read_equal": same_read, "neuron_wraps": wraps}
+            "read_equal": same_read, "neuron_wraps": wraps, "dense_wraps": dense_wraps}
 
 
 def _updates(arr: Loihi2Array, lr: float, epochs: int, rng: np.random.Generator):

@@ -159,17 +159,23 @@ def correct24(d):
 
 
 @kernel
+def dense_output(total, exp):
+    """Lava's ``Dense`` ``a_out`` for the exact dendritic sum ``total``: the dot product
+    wraps to int32, then is shifted by the weight exponent (a floor right shift by -exp,
+    or left by exp, in int32)."""
+    t = int32(total)
+    return t >> np.int64(-exp) if exp < 0 else int32(t << np.int64(exp))
+
+
+@kernel
 def neuron_input(total, exp):
     """(u, wrapped): the neuron's current u for the exact dendritic sum ``total``, as Lava's
-    ``Dense`` and ``PyLifModelBitAcc`` compute it in int32: the dot product wraps to
-    int32, is shifted by the weight exponent (a floor right shift by -exp, or left by exp,
-    int32), goes << 6 (int32) into the current, which gets the one correction of
-    :func:`correct24`. wrapped is 1 when u differs from the exact (total >> -exp) << 6."""
+    ``Dense`` and ``PyLifModelBitAcc`` compute it in int32: :func:`dense_output` goes << 6
+    (int32) into the current, which gets the one correction of :func:`correct24`. wrapped
+    is 1 when u differs from the exact (total >> -exp) << 6."""
     e = np.int64(-exp) if exp < 0 else np.int64(exp)
     exact = (total >> e if exp < 0 else total << e) << np.int64(ACT_SHIFT)
-    t = int32(total)
-    a = t >> e if exp < 0 else int32(t << e)
-    u, _ = correct24(int32(a << np.int64(ACT_SHIFT)))
+    u, _ = correct24(int32(dense_output(total, exp) << np.int64(ACT_SHIFT)))
     return u, 1 if u != exact else 0
 
 

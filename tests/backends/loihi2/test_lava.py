@@ -107,6 +107,24 @@ def test_overflowing_reads_are_what_lava_computes(lava_env):
 
 
 @pytest.mark.lava
+def test_dense_sums_beyond_int32_wrap_as_in_lava(lava_env):
+    """Full-scale 24-bit payloads on 16 inputs of one sign: the dot product passes 2^31,
+    and Lava's Dense holds it in int32, wrapped; the expectation wraps it too."""
+    W = np.full((3, 16), 0.5)
+    W[1] = -0.5
+    W[2, ::2] = 0.25
+    arr = Loihi2Array.from_float(W, payload_scale="full")
+    X = np.random.default_rng(3).uniform(0.5, 1.0, (4, 16))
+    X[1] *= -1.0
+    work = conformance.read_work(arr, "W", X, False)
+    work["reads"] = np.array(["W"])
+    got = conformance.run_lava(work)
+    r = conformance.compare_reads(arr, X, False, got["W/a_out"], got["W/u"])
+    assert r["dense_wraps"] >= 8
+    assert r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"] == 4
+
+
+@pytest.mark.lava
 def test_a_bare_sign_mode_code_clips_negative_weights_in_lava(lava_env, tmp_path):
     """Why the export names ``SignMode``: ``Dense(sign_mode=1)`` is not MIXED there."""
     code = ("import numpy as np\n"
