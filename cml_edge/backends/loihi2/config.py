@@ -222,6 +222,10 @@ def beyond_lava(options: Mapping[str, Any], schedule: str) -> tuple[str, ...]:
         beyond.append("--schedule walk: the engine's accumulator kept across a walk's steps, "
                       "one write-back a walk (Lava applies the rule once per epoch of at "
                       "most 63 steps)")
+    if schedule != "walk" and config.t_epoch > 1:
+        beyond.append(f"--t-epoch {config.t_epoch}: the terms of an epoch's steps summed "
+                      "into one write-back (Lava's LearningDense applies the rule to the "
+                      "epoch's last traces alone)")
     if config.draws == "independent":
         beyond.append("--draws independent: a rounding draw per synapse (Lava draws one "
                       "per epoch)")

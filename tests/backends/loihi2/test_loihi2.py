@@ -662,6 +662,10 @@ def test_export_writes_lava_dense_parameters(cli, tmp_path):
     assert "transposed_read" in json.loads((tmp_path / "lava" / "W_v.json").read_text())
     index = json.loads((tmp_path / "lava" / "lava.json").read_text())
     assert [m["matrix"] for m in index["matrices"]] == ["W_q", "W_k", "W_v"]
+    # the model's settings and training travel with it: a step model runs in Lava as trained
+    assert index["options"]["num_message_bits"] == 16 and index["training"]["walks"] == 2
+    assert index["training"]["schedule"] == "step" and "train_error" not in index["training"]
+    assert index["beyond_reference"]["settings"] == result["beyond_reference"]["settings"] == []
     # written whole: again over its own folder; a folder of other files is refused first
     (tmp_path / "lava" / "W_k.json").write_text("stale")
     assert cli("export", model, "--format", "lava", "--out", tmp_path / "lava")[0] == 0
@@ -834,6 +838,11 @@ def test_what_lava_does_not_run_is_named_in_the_json_and_the_text(cli, tmp_path)
                         "walk")
     assert [s.split(":")[0] for s in named] == ["--schedule walk", "--draws independent",
                                                 "terms=exact", "traces=stochastic"]
+    # an epoch of several steps: summed terms where Lava reads the last step's traces (a
+    # walk is one epoch whatever t_epoch says, named once)
+    assert [s.split(":")[0] for s in beyond_lava({"t_epoch": 2}, "step")] == ["--t-epoch 2"]
+    assert [s.split(":")[0] for s in beyond_lava({"t_epoch": 2}, "walk")] == [
+        "--schedule walk"]
     small = ["--arena", 6, "--walks", 2, "--steps", 30]
     code, out, _ = cli("emulate", "--backend", "loihi2", *small, "--trials", 3, "--seeds", 1,
                        "--json")
