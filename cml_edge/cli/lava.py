@@ -41,5 +41,6 @@ def cmd_verify(args: argparse.Namespace) -> dict[str, Any]:
     for flag, value in (("--epochs", args.epochs), ("--reads", args.reads)):
         if value > MAX_COUNT:
             raise InputError(f"{flag} {value} is beyond {MAX_COUNT} (allowed: 1..{MAX_COUNT})")
-    cml, _ = load_model(args.model)
-    return verify(cml, args.model, epochs=args.epochs, reads=args.reads, seed=args.seed)
+    cml, training = load_model(args.model)
+    return verify(cml, args.model, epochs=args.epochs, reads=args.reads, seed=args.seed,
+                  schedule=training.get("schedule", "step"))

@@ -213,29 +213,36 @@ def make_config(**options: Any) -> Loihi2Config:
 REFERENCE = "Intel Lava 0.10"
 
 
+def lava_gaps(options: Mapping[str, Any], schedule: str) -> tuple[tuple[str, str, bool], ...]:
+    """What of a run of ``options`` on ``schedule`` Lava does not run: (the setting, why,
+    whether ``lava verify`` can still replay the learning in Lava) for each."""
+    config = make_config(**options)
+    gaps = []
+    if schedule == "walk":
+        gaps.append(("--schedule walk", "the engine's accumulator kept across a walk's steps, "
+                     "one write-back a walk (Lava applies the rule once per epoch of at most "
+                     "63 steps)", False))
+    if schedule != "walk" and config.t_epoch > 1:
+        gaps.append((f"--t-epoch {config.t_epoch}", "the terms of an epoch's steps summed "
+                     "into one write-back (Lava's LearningDense applies the rule to the "
+                     "epoch's last traces alone)", False))
+    if config.draws == "independent":
+        gaps.append(("--draws independent", "a rounding draw per synapse (Lava draws one per "
+                     "epoch)", False))
+    if config.terms == "exact":
+        gaps.append(("terms=exact", "exact update terms, not the engine's", False))
+    if config.traces == "stochastic":
+        gaps.append(("traces=stochastic", "neurons that dither their graded spikes "
+                     "(microcode Lava's neuron models lack; the learning itself runs in "
+                     "Lava)", True))
+    return tuple(gaps)
+
+
 def beyond_lava(options: Mapping[str, Any], schedule: str) -> tuple[str, ...]:
     """What of a run of ``options`` on ``schedule`` Lava does not run, one sentence each
-    (the ``beyond_reference`` of ``train`` and ``emulate``; docs/devices/loihi2.md)."""
-    config = make_config(**options)
-    beyond = []
-    if schedule == "walk":
-        beyond.append("--schedule walk: the engine's accumulator kept across a walk's steps, "
-                      "one write-back a walk (Lava applies the rule once per epoch of at "
-                      "most 63 steps)")
-    if schedule != "walk" and config.t_epoch > 1:
-        beyond.append(f"--t-epoch {config.t_epoch}: the terms of an epoch's steps summed "
-                      "into one write-back (Lava's LearningDense applies the rule to the "
-                      "epoch's last traces alone)")
-    if config.draws == "independent":
-        beyond.append("--draws independent: a rounding draw per synapse (Lava draws one "
-                      "per epoch)")
-    if config.terms == "exact":
-        beyond.append("terms=exact: exact update terms, not the engine's")
-    if config.traces == "stochastic":
-        beyond.append("traces=stochastic: neurons that dither their graded spikes "
-                      "(microcode Lava's neuron models lack; the learning itself runs "
-                      "in Lava)")
-    return tuple(beyond)
+    (the ``beyond_reference`` of ``train``, ``emulate`` and ``export``;
+    docs/devices/loihi2.md)."""
+    return tuple(f"{setting}: {why}" for setting, why, _ in lava_gaps(options, schedule))
 
 
 KNOBS = (

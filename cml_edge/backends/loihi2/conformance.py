@@ -41,6 +41,7 @@ import cml_edge
 from cml_edge.backends.fields import MATRICES
 from cml_edge.backends.loihi2 import kernels as kern
 from cml_edge.backends.loihi2.array import Loihi2Array
+from cml_edge.backends.loihi2.config import lava_gaps
 from cml_edge.backends.loihi2.lava import SIGN_MODES
 from cml_edge.errors import InputError
 
@@ -205,12 +206,20 @@ def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str) -> d
 
 
 def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
-           seed: int = 0) -> dict[str, Any]:
-    """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``) in Lava and
-    compare (module docstring)."""
+           seed: int = 0, schedule: str = "step") -> dict[str, Any]:
+    """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``, trained on
+    ``schedule``) in Lava and compare (module docstring). A model trained with settings
+    whose learning Lava does not run (:func:`~cml_edge.backends.loihi2.config.lava_gaps`)
+    is refused, naming them."""
     if any(not isinstance(arr, Loihi2Array) for arr in cml.arrays):
         raise InputError(f"{model!r} is a {cml.backend} model; lava verify runs loihi2 models "
                          "(allowed: a model trained with --backend loihi2)")
+    gaps = [setting for setting, _, replayable in lava_gaps(cml.arrays[0].options(), schedule)
+            if not replayable]
+    if gaps:
+        raise InputError(f"{model!r} was trained with {', '.join(gaps)}, which Lava does not "
+                         "run (allowed: a model of --schedule step, t_epoch 1, shared draws "
+                         "and the engine's terms)")
     venv_python()  # before any work
     rng = np.random.default_rng(seed)
     lrs = dict(zip(MATRICES, (cml.config.lr_q, cml.config.lr_k, cml.config.lr_v)))

@@ -60,6 +60,22 @@ def test_bad_counts_and_other_models_are_refused(model, tmp_path, capsys):
     assert "lava verify runs loihi2 models" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("options", "named"), [
+    (["--schedule", "walk"], "--schedule walk"),
+    (["--t-epoch", "2"], "--t-epoch 2"),
+    (["--draws", "independent", "--set", "terms=exact"], "--draws independent, terms=exact"),
+])
+def test_a_model_whose_learning_lava_does_not_run_is_refused(tmp_path, capsys, options, named):
+    """Before any work (the environment is not even looked for): one line naming them."""
+    path = tmp_path / "m.npz"
+    assert main(["train", "--backend", "loihi2", *options, "--arena", "4", "--walks", "1",
+                 "--steps", "10", "--out", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["lava", "verify", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"trained with {named}, which Lava does not run" in err
+
+
 @pytest.mark.lava
 def test_a_trained_model_reads_and_learns_in_lava_bit_for_bit(lava_env, model, capsys):
     assert main(["lava", "verify", str(model), "--epochs", "6", "--reads", "8", "--json"]) == 0
