@@ -1,5 +1,7 @@
 """``cml-edge lava verify MODEL --epochs K``: a saved loihi2 model run in Intel Lava's own
-CPU simulator and compared integer for integer (:mod:`cml_edge.backends.loihi2.conformance`).
+CPU simulator and compared integer for integer (:mod:`cml_edge.backends.loihi2.conformance`);
+``cml-edge lava run MODEL --trials N``: the navigator planning with every read computed in
+Lava (:mod:`cml_edge.grid.in_lava`).
 
 Lava 0.10.0 runs on Python 3.10 in an environment of its own: ``bash scripts/lava_env.sh``
 builds it; without it the command stops with one line naming that command (exit 2).
@@ -32,6 +34,15 @@ def add_parsers(sub) -> None:
                    help="seed of the vectors and updates (default 0)")
     v.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     v.set_defaults(run=cmd_verify)
+    r = lava_sub.add_parser("run", help="plan the protocol's pairs with every read (utility, "
+                            "affordance) computed in Lava 0.10.0; decisions against the "
+                            "emulation's")
+    r.add_argument("model", help="model file (.npz) trained with --backend loihi2")
+    r.add_argument("--trials", type=positive_int, default=100,
+                   help="(start, goal) pairs of the protocol, on the model's training arena, "
+                        "1..1000 (default 100)")
+    r.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    r.set_defaults(run=cmd_run)
 
 
 def cmd_verify(args: argparse.Namespace) -> dict[str, Any]:
@@ -44,3 +55,36 @@ def cmd_verify(args: argparse.Namespace) -> dict[str, Any]:
     cml, training = load_model(args.model)
     return verify(cml, args.model, epochs=args.epochs, reads=args.reads, seed=args.seed,
                   schedule=training.get("schedule", "step"))
+
+
+def cmd_run(args: argparse.Namespace) -> dict[str, Any]:
+    from cml_edge.backends.loihi2.array import Loihi2Array
+    from cml_edge.backends.loihi2.conformance import venv_python
+    from cml_edge.cli.tools import StageProgress
+    from cml_edge.core.model_file import load_model
+    from cml_edge.grid.evaluation import eval_setting
+    from cml_edge.grid.in_lava import run_in_lava
+    from cml_edge.grid.metrics import summarize
+    from cml_edge.grid.planning import plan
+    from cml_edge.protocol import EVAL_SEED
+
+    if args.trials > MAX_COUNT:
+        raise InputError(f"--trials {args.trials} is beyond {MAX_COUNT} (allowed: "
+                         f"1..{MAX_COUNT})")
+    cml, training = load_model(args.model)
+    if any(not isinstance(arr, Loihi2Array) for arr in cml.arrays):
+        raise InputError(f"{args.model!r} is a {cml.backend} model; lava run plans with "
+                         "loihi2 models (allowed: a model trained with --backend loihi2)")
+    if "arena" not in training:
+        raise InputError(f"{args.model!r} does not record its training arena (allowed: a "
+                         "model written by cml-edge train)")
+    venv_python()  # before any work
+    arena, pairs, budget = eval_setting({"trials": args.trials, "obstacles": 0, "size": None,
+                                         "eval_seed": EVAL_SEED, "max_steps": None},
+                                        int(training["arena"]))
+    emulated = plan(cml, arena, pairs.starts, pairs.goals, max_steps=budget)
+    result = run_in_lava(cml, arena, pairs, budget, progress=StageProgress("lava run"))
+    return {"model": str(args.model), "arena": arena.size, "trials": args.trials,
+            "max_steps": budget, **result,
+            "emulation_success_rate": summarize(emulated.final, emulated.steps,
+                                                pairs)["success_rate"]}

@@ -121,6 +121,14 @@ def read_work(arr: Loihi2Array, name: str, X: np.ndarray, transposed: bool) -> d
             f"{name}/sign_mode": np.array(d["sign_mode"])}
 
 
+def lava_floats(arr: Loihi2Array, X: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The float reads of the input rows X from the ``u`` Lava's LIF holds for them, scaled
+    as the emulation scales its own: u 2^(e - scale_exp - 6), e each payload's scale."""
+    _, scales = _payloads(arr, X)
+    return np.ldexp(np.asarray(u, np.float64),
+                    (scales - int(arr.state.params.scale_exp) - kern.ACT_SHIFT)[:, None])
+
+
 def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.ndarray,
                    u: np.ndarray) -> dict[str, int]:
     p = arr.state.params
@@ -137,9 +145,7 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
         same_a += bool((a == a_out[t]).all())
         same_u += bool((np.array([v for v, _ in mine]) == u[t]).all())
         read = arr.rmatvec(x) if transposed else arr.matvec(x)
-        lava_read = np.ldexp(u[t].astype(np.float64),
-                             int(scales[t]) - int(p.scale_exp) - kern.ACT_SHIFT)
-        same_read += bool((read == lava_read).all())
+        same_read += bool((read == lava_floats(arr, x[None], u[t][None])[0]).all())
     return {"vectors": len(X), "a_out_equal": same_a, "u_equal": same_u,
             "read_equal": same_read, "neuron_wraps": wraps, "dense_wraps": dense_wraps}
 

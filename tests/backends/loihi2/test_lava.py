@@ -152,3 +152,26 @@ def test_a_bare_sign_mode_code_clips_negative_weights_in_lava(lava_env, tmp_path
                           timeout=600)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split("]] ") == ["[[0, 6", "[[-4, 6]]\n"]
+
+
+@pytest.mark.lava
+def test_the_navigator_plans_in_lava_with_the_emulation_s_decisions(lava_env, model, capsys):
+    """``cml-edge lava run``: every read of every decision computed in Lava; each decision
+    is the one the emulation takes in that cell, and the plans end where its plans do."""
+    assert main(["lava", "run", str(model), "--trials", "12", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["trials"] == 12 and r["arena"] == 6 and r["decisions"] > 12
+    assert r["decisions_equal"] == r["decisions"] and r["rounds"] >= 2
+    assert r["success_rate"] == r["emulation_success_rate"]
+
+
+def test_lava_run_refuses_other_models_before_any_work(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv(conformance.VENV_VARIABLE, str(tmp_path / "none"))
+    int8 = tmp_path / "i.npz"
+    assert main(["train", "--backend", "int8", "--arena", "4", "--walks", "1", "--steps",
+                 "10", "--out", str(int8)]) == 0
+    capsys.readouterr()
+    assert main(["lava", "run", str(int8)]) == 2
+    assert "lava run plans with loihi2 models" in capsys.readouterr().err
+    assert main(["lava", "run", str(int8), "--trials", "1001"]) == 2
+    assert "--trials 1001 is beyond 1000" in capsys.readouterr().err
