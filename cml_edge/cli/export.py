@@ -5,8 +5,10 @@ For each matrix (W_q, W_k, W_v) it writes ``NAME.npz`` (``weights``, ``mantissa`
 :meth:`cml_edge.backends.loihi2.array.Loihi2Array.to_lava`) and ``NAME.json`` (how to build
 the ``Dense`` process from it and how a read maps to the CML's float read;
 :func:`~cml_edge.backends.loihi2.array.lava_description`), and ``lava.json`` listing them
-with the model's options, its training record and what of its training Lava does not run
-(``beyond_reference``, also in the command's output).
+with the model's options, its CML config (the observation frame), the moves in action
+order, its training record and what of its training Lava does not run
+(``beyond_reference``, also in the command's output): what a plan step needs
+(docs/devices/loihi2.md has a script that plans one in Lava without cml-edge).
 Lava is not needed here (nor installable on Python 3.11): a user who has it builds
 ``Dense(weights=..., weight_exp=..., num_weight_bits=..., sign_mode=SignMode(...),
 num_message_bits=...)`` from these files. Every file is written under a temporary name and
@@ -27,6 +29,7 @@ from cml_edge.cli.output import beyond_rows, labelled, plural
 from cml_edge.core.finite import dumps
 from cml_edge.core.model_file import MATRICES, load_model
 from cml_edge.errors import InputError
+from cml_edge.grid.arena import MOVES
 from cml_edge.io.files import (
     atomic_folder,
     own_folder,
@@ -80,6 +83,7 @@ def cmd_export(args: argparse.Namespace) -> dict[str, Any]:
                               training.get("schedule", "step"))
     index = {"model": str(args.model), "format": "lava", "backend": cml.backend,
              "matrices": described, "options": cml.arrays[0].options(),
+             "cml_config": cml.config.to_dict(), "moves": MOVES.tolist(),
              "training": {k: v for k, v in training.items() if k != "train_error"}, **beyond,
              "note": "one Dense per matrix (NAME.json says how); planning also reads W_v^T, "
                      "a second Dense of W_v's weights transposed"}

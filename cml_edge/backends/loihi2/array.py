@@ -235,6 +235,8 @@ class Loihi2Array(SynapticArray):
           ``EXCITATORY`` or ``INHIBITORY``; pass ``SignMode[name]``: ``Dense`` compares the
           member, and a bare integer makes it clip every negative weight) and
           ``num_message_bits``;
+        - ``payload_l1_max``: the largest L1 norm of a read's payloads (0: no bound, the
+          ``full`` payload scale);
         - ``mantissa``: the programmed width's mantissas (``optimize_weight_bits(...,
           loihi2=True)``'s form), ``scale_exp`` (a weight w is the float
           w 2^(weight_exp - scale_exp)), and ``lsb_truncated``: how many weights
@@ -253,7 +255,9 @@ class Loihi2Array(SynapticArray):
                 "sign_mode": LAVA_SIGN_MODES[mode], "num_message_bits":
                 int(p.num_message_bits), "mantissa": self.mantissa.astype(np.int32),
                 "scale_exp": int(p.scale_exp),
-                "lsb_truncated": int(np.count_nonzero(truncated != w))}
+                "lsb_truncated": int(np.count_nonzero(truncated != w)),
+                "payload_l1_max": int(p.l1_max) if PAYLOAD_SCALES[p.payload_scale] == "safe"
+                else 0}
 
     # persistence ------------------------------------------------------------------
     @classmethod
@@ -307,7 +311,8 @@ def lava_description(arr: Loihi2Array, name: str) -> dict[str, Any]:
         "scale_exp": d["scale_exp"],
         "float_weights": f"weights * 2**({d['weight_exp']} - {d['scale_exp']})",
         "read": ("x (float, length in) -> payloads s = rint(x * 2**-e) with one power-of-two "
-                 "scale e per vector, |s| <= 2**(num_message_bits - 1) - 1; the Dense's "
+                 "scale e per vector, the finest at which |s| <= 2**(num_message_bits - 1) - 1 "
+                 "and, where payload_l1_max > 0, sum |s| <= payload_l1_max; the Dense's "
                  "a_out = (weights @ s) >> -weight_exp (weight_exp < 0; << otherwise; "
                  "an int32 dot product); the neuron's input is a_out << 6 (LIF with "
                  "du=4095; u past +-2^23 gets one 2^24 correction); W x = u * "

@@ -175,3 +175,31 @@ def test_lava_run_refuses_other_models_before_any_work(tmp_path, capsys, monkeyp
     assert "lava run plans with loihi2 models" in capsys.readouterr().err
     assert main(["lava", "run", str(int8), "--trials", "1001"]) == 2
     assert "--trials 1001 is beyond 1000" in capsys.readouterr().err
+
+
+def plan_step_script() -> str:
+    """The ``plan_step.py`` of docs/devices/loihi2.md, as printed there."""
+    page = (conformance.repo_root() / "docs" / "devices" / "loihi2.md").read_text()
+    section = page.split("### One plan step in Lava, without cml-edge", 1)[1]
+    return section.split("```python\n", 1)[1].split("```", 1)[0]
+
+
+@pytest.mark.lava
+def test_the_docs_plan_step_runs_in_lava_alone_and_takes_the_emulation_s_action(
+        lava_env, model, tmp_path):
+    from cml_edge.core.model_file import load_model
+    from cml_edge.grid.arena import GridArena
+    from cml_edge.grid.planning import plan
+
+    script = tmp_path / "plan_step.py"
+    script.write_text(plan_step_script())
+    assert main(["export", str(model), "--format", "lava", "--out", str(tmp_path / "x")]) == 0
+    cml, _ = load_model(model)
+    for start, goal in (((0, 0), (5, 3)), ((4, 5), (0, 1)), ((2, 2), (2, 5))):
+        done = subprocess.run([str(lava_env), "-I", str(script), str(tmp_path / "x"),
+                               *map(str, start + goal)], capture_output=True, text=True,
+                              timeout=600, cwd=tmp_path)  # -I: no cml_edge on its path
+        assert done.returncode == 0, done.stderr
+        move = json.loads(done.stdout)["move"]
+        one = plan(cml, GridArena.empty(6), np.array([start]), np.array([goal]), max_steps=1)
+        assert tuple(one.final[0]) == (start[0] + move[0], start[1] + move[1])
