@@ -23,17 +23,21 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("lava", help="run a loihi2 model in Intel Lava (optional environment: "
                        "bash scripts/lava_env.sh)")
     lava_sub = p.add_subparsers(dest="lava_command", required=True)
-    v = lava_sub.add_parser("verify", help="compare a loihi2 model's reads and K learning "
-                            "epochs with Lava 0.10.0's fixed_pt simulator, integer for integer")
+    v = lava_sub.add_parser("verify", help="compare a loihi2 model's reads and K updates of "
+                            "its own training with Lava 0.10.0's fixed_pt simulator, integer "
+                            "for integer")
     v.add_argument("model", help="model file (.npz) trained with --backend loihi2")
     v.add_argument("--epochs", type=positive_int, default=20, metavar="K",
-                   help="learning epochs per matrix (t_epoch 1), 1..1000 (default 20)")
+                   help="updates of the model's own training replayed per matrix, one epoch "
+                        "each, 1..1000 (default 20)")
+    v.add_argument("--skip", type=nonneg_int, default=0, metavar="N",
+                   help="start the replay after the training's first N updates (default 0)")
     v.add_argument("--reads", type=positive_int, default=16, metavar="N",
                    help="input vectors per read (W_q, W_k, W_v, W_v^T), 1..1000 (default 16)")
     v.add_argument("--seed", type=nonneg_int, default=0,
                    help="seed of the vectors and updates (default 0)")
     v.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    v.set_defaults(run=cmd_verify)
+    v.set_defaults(run=cmd_verify, show=show_verify)
     r = lava_sub.add_parser("run", help="plan the protocol's pairs with every read (utility, "
                             "affordance) computed in Lava 0.10.0; decisions against the "
                             "emulation's")
@@ -46,15 +50,18 @@ def add_parsers(sub) -> None:
 
 
 def cmd_verify(args: argparse.Namespace) -> dict[str, Any]:
-    from cml_edge.backends.loihi2.conformance import verify
+    from cml_edge.backends.loihi2.conformance import check_replayable, venv_python, verify
     from cml_edge.core.model_file import load_model
+    from cml_edge.grid.in_lava import training_updates
 
     for flag, value in (("--epochs", args.epochs), ("--reads", args.reads)):
         if value > MAX_COUNT:
             raise InputError(f"{flag} {value} is beyond {MAX_COUNT} (allowed: 1..{MAX_COUNT})")
     cml, training = load_model(args.model)
-    return verify(cml, args.model, epochs=args.epochs, reads=args.reads, seed=args.seed,
-                  schedule=training.get("schedule", "step"))
+    check_replayable(cml, args.model, training.get("schedule", "step"))
+    venv_python()  # before any work
+    updates = training_updates(cml, training, args.epochs, skip=args.skip)
+    return verify(cml, args.model, updates, reads=args.reads, seed=args.seed)
 
 
 def cmd_run(args: argparse.Namespace) -> dict[str, Any]:
@@ -88,3 +95,17 @@ def cmd_run(args: argparse.Namespace) -> dict[str, Any]:
             "max_steps": budget, **result,
             "emulation_success_rate": summarize(emulated.final, emulated.steps,
                                                 pairs)["success_rate"]}
+
+
+def show_verify(r: dict[str, Any]) -> None:
+    """``lava verify``: per read and per matrix's replayed updates, how many match Lava."""
+    from cml_edge.cli.output import labelled
+
+    print(f"lava verify: {r['model']} in {r['lava']}")
+    rows = [(f"read {name}", f"{x['read_equal']} of {x['vectors']} vectors equal (a_out "
+             f"{x['a_out_equal']}, u {x['u_equal']})") for name, x in r["reads"].items()]
+    rows += [(f"learning {name}", f"{x['equal']} of {x['replayed']} replayed updates end on "
+              f"the emulation's weights ({x['negative_pre']} negative pre trace entries "
+              f"sent; {x['not_expressible']} not expressible)")
+             for name, x in r["learning"].items()]
+    print("\n".join(labelled([*rows, ("bit exact", "yes" if r["bit_exact"] else "no")])))

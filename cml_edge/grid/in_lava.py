@@ -20,17 +20,20 @@ decision of that round is then compared with the emulation's decision in the sam
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from cml_edge.backends import array_from_state_dict
 from cml_edge.backends.loihi2 import conformance
 from cml_edge.core.cml import CML
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import Pairs, summarize
 from cml_edge.grid.planning import plan
+from cml_edge.grid.training import TrainConfig, train
 
 MAX_ROUNDS = 12
 """Rounds before giving up (each adds the reads the previous round's plans reached)."""
@@ -127,4 +130,63 @@ def _decisions(cml: CML, arena: GridArena, pairs: Pairs, res: Any,
     return len(starts), int(np.all(one.final == np.array(nexts), axis=1).sum())
 
 
-__all__ = ["LavaReads", "run_in_lava"]
+class _RecordedError(Exception):
+    """Every matrix has recorded its stretch of updates: training stops."""
+
+
+class UpdateRecorder:
+    """An array that records its next ``count`` updates after the first ``skip``: its
+    state before them, then each ``(post, pre, lr, stream)``, ``stream`` its random stream
+    just before the update. Everything else is the array's own."""
+
+    def __init__(self, arr: Any, skip: int, count: int, all_: list[UpdateRecorder]) -> None:
+        self.arr, self.skip, self.count, self.all = arr, skip, count, all_
+        self.seen = 0
+        self.start: Any = None
+        self.calls: list[tuple] = []
+
+    def outer_update(self, post: np.ndarray, pre: np.ndarray, lr: float, defer: bool) -> None:
+        if self.skip <= self.seen < self.skip + self.count:
+            if self.start is None:
+                self.start = array_from_state_dict(self.arr.state_dict())
+            self.calls.append((np.array(post, dtype=np.float64),
+                               np.array(pre, dtype=np.float64), float(lr),
+                               self.arr.state.rng.copy()))
+        self.seen += 1
+        self.arr.outer_update(post, pre, lr, defer)
+        if all(len(r.calls) == r.count for r in self.all):
+            raise _RecordedError
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.arr, name)
+
+
+def training_updates(cml: CML, training: dict[str, Any], epochs: int,
+                     skip: int = 0) -> dict[str, tuple[Any, list[tuple]]]:
+    """The model's own training rerun from its record (seed, arena, walks, steps,
+    exploration, schedule and device options; the reference path) until each matrix has
+    made ``skip`` + ``epochs`` updates: per matrix, its array before update ``skip`` and
+    updates ``skip`` .. ``skip + epochs - 1`` (:class:`UpdateRecorder`). InputError when
+    the record does not rebuild the model's arrays, or its training ends first."""
+    try:
+        fresh = CML.create(cml.config, cml.backend, int(training["seed"]),
+                           **training.get("backend_options", {}))
+        config = TrainConfig(int(training["walks"]), int(training["steps"]),
+                             training.get("explore", "random"), training["schedule"])
+        size = int(training["arena"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"the model's training record cannot be rerun ({exc})") from None
+    if [a.options() for a in fresh.arrays] != [a.options() for a in cml.arrays]:
+        raise InputError("the model's training record does not rebuild its arrays (other "
+                         "options)")
+    recorders: list[UpdateRecorder] = []
+    recorders += [UpdateRecorder(a, skip, epochs, recorders) for a in fresh.arrays]
+    with contextlib.suppress(_RecordedError):
+        train(CML(cml.config, tuple(recorders), cml.backend), GridArena.empty(size), config,
+              int(training["seed"]), path="reference")
+    if any(len(r.calls) < epochs for r in recorders):
+        raise InputError(f"the model's training makes fewer than {skip + epochs} updates")
+    return {name: (r.start, r.calls) for name, r in zip(("W_q", "W_k", "W_v"), recorders)}
+
+
+__all__ = ["LavaReads", "UpdateRecorder", "run_in_lava", "training_updates"]

@@ -14,16 +14,19 @@ What is compared (:func:`verify`):
   ``a_out`` and its ``LIF`` the 24-bit ``u``; each is compared with the emulation's (the
   dot product held in int32 as Lava's ``Dense`` holds it, wrapped past 2^31 and counted
   as ``dense_wraps``), and the emulation's float read with u 2^(e - scale_exp - 6);
-- learning: K updates of the CML's shape (a one-hot pre, the post a difference of two of
-  the matrix's columns, the model's learning rate) become the rule literal and traces as the
-  emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`; with
-  ``traces`` ``stochastic`` drawn from a copy of the array's stream); Lava's
-  ``LearningDense`` runs them one epoch each (t_epoch 1). Compared per epoch: the traces
-  the rule read (Lava decays each trace for one step with time constant 65535 before the
-  rule reads it, a stochastic rounding that can move a trace by one), the weights Lava
-  wrote against the emulation's engine arithmetic on Lava's traces with Lava's write-back
-  draws (``ConnVarRandom``: NumPy's generator seeded 2), and against the same from the
-  emulation's own traces. An epoch whose term shift is 16 or more (the emulation
+- learning: K updates of each matrix from the model's own training, rerun from its record
+  (:func:`cml_edge.grid.in_lava.training_updates`), become the rule literal and traces as
+  the emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`, with
+  the array's own stream); Lava's ``LearningDense`` runs them one epoch each (t_epoch 1),
+  from the weights the training had before them, the pre neurons' graded spikes carrying
+  2 X and a source the post traces Y. Compared per epoch: the traces the rule read (Lava
+  decays each trace for one step with time constant 65535 before the rule reads it, a
+  stochastic rounding that can move a trace by one), the weights Lava wrote against the
+  emulation's engine arithmetic on Lava's traces with Lava's write-back draws
+  (``ConnVarRandom``: NumPy's generator seeded 2; ``engine_equal``), and against the same
+  from the emulation's own traces, epoch after epoch (``equal`` of ``replayed``); how many
+  negative pre and post trace entries were sent (``negative_pre``, ``negative_post``:
+  Lava's pre trace is unsigned). An epoch whose term shift is 16 or more (the emulation
   saturates the term; Lava's rule exponent stops at 8) is not expressible and is counted.
 """
 
@@ -150,24 +153,19 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
             "read_equal": same_read, "neuron_wraps": wraps, "dense_wraps": dense_wraps}
 
 
-def _updates(arr: Loihi2Array, lr: float, epochs: int, rng: np.random.Generator):
-    """The rule literal (m, k), pre traces X and post traces Y of ``epochs`` CML-shaped
-    updates (module docstring), as the emulation forms them."""
+def engine_updates(arr: Loihi2Array, calls: list[tuple]) -> tuple[np.ndarray, ...]:
+    """The rule literal (m, k), pre traces X and post traces Y of each update
+    ``(post, pre, lr, stream)`` of ``arr`` (``stream``: the array's random stream just
+    before it), as the emulation forms them."""
     rows, cols = arr.shape
     p = arr.state.params
-    Wf = arr.to_float()
-    rule = np.zeros((epochs, 2), np.int64)
-    Xs = np.zeros((epochs, cols), np.int64)
-    Ys = np.zeros((epochs, rows), np.int64)
+    rule = np.zeros((len(calls), 2), np.int64)
+    Xs = np.zeros((len(calls), cols), np.int64)
+    Ys = np.zeros((len(calls), rows), np.int64)
     stochastic = p.traces == kern.STOCHASTIC and p.terms != kern.EXACT
-    stream = arr.state.rng.copy()  # the array's own stream, the array left as it is
-    for t in range(epochs):
-        pre = np.zeros(cols)
-        pre[rng.integers(cols)] = 1.0
-        a, b = rng.integers(cols, size=2)
-        post = Wf[:, a] - Wf[:, b] + 0.01 * rng.standard_normal(rows)
+    for t, (post, pre, lr, stream) in enumerate(calls):
         m, k, _ = kern.engine_traces(post, pre, rows, cols, float(lr),
-                                     int(p.scale_exp) - int(p.exp), stochastic, stream,
+                                     int(p.scale_exp) - int(p.exp), stochastic, stream.copy(),
                                      Xs[t], Ys[t])
         rule[t] = (m, k)
     return rule, Xs, Ys
@@ -176,14 +174,15 @@ def _updates(arr: Loihi2Array, lr: float, epochs: int, rng: np.random.Generator)
 def _engine_epoch(w: np.ndarray, mode: int, m: int, k: int, X: np.ndarray, Y: np.ndarray,
                   r: float) -> np.ndarray:
     """One epoch of the emulation's engine arithmetic (kernels: engine_term, accumulate,
-    write_back) on weights w with the pre traces X (x0: X > 0), post traces Y and draw r."""
+    write_back) on weights w with the pre traces X (x0: X != 0; signed, as the emulation
+    forms them), post traces Y and draw r."""
     lo, hi = (-256, 255) if mode == kern.MIXED else ((0, 255) if mode == kern.EXCITATORY
                                                      else (-255, 0))
     out = w.copy()
     for i in range(w.shape[0]):
         for j in range(w.shape[1]):
             a = int(w[i, j]) << kern.FRAC_BITS
-            if X[j] > 0:
+            if X[j] != 0:
                 term, _ = kern.engine_term(m, int(X[j]), int(Y[i]), k)
                 a, _ = kern.accumulate(a, term)
             out[i, j], _, _ = kern.write_back(a, r, mode, lo, hi)
@@ -207,16 +206,15 @@ def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str) -> d
         w_own = _engine_epoch(w_own, mode, m, k, Xs[t], Ys[t], r)
         same_weights += bool((w_own == lava_w).all())
         w_lava = lava_w
-    return {"epochs": len(rule), "traces_equal": same_traces, "engine_equal": same_engine,
-            "weights_equal": same_weights}
+    return {"replayed": len(rule), "equal": same_weights, "traces_equal": same_traces,
+            "engine_equal": same_engine, "negative_pre": int((Xs < 0).sum()),
+            "negative_post": int((Ys < 0).sum())}
 
 
-def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
-           seed: int = 0, schedule: str = "step") -> dict[str, Any]:
-    """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``, trained on
-    ``schedule``) in Lava and compare (module docstring). A model trained with settings
-    whose learning Lava does not run (:func:`~cml_edge.backends.loihi2.config.lava_gaps`)
-    is refused, naming them."""
+def check_replayable(cml: Any, model: str, schedule: str) -> None:
+    """Refuse (InputError, one line) a model that is not loihi2's, or whose training
+    (``schedule`` and its arrays' options) Lava does not run
+    (:func:`~cml_edge.backends.loihi2.config.lava_gaps`)."""
     if any(not isinstance(arr, Loihi2Array) for arr in cml.arrays):
         raise InputError(f"{model!r} is a {cml.backend} model; lava verify runs loihi2 models "
                          "(allowed: a model trained with --backend loihi2)")
@@ -226,9 +224,16 @@ def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
         raise InputError(f"{model!r} was trained with {', '.join(gaps)}, which Lava does not "
                          "run (allowed: a model of --schedule step, t_epoch 1, shared draws "
                          "and the engine's terms)")
+
+
+def verify(cml: Any, model: str, updates: dict[str, tuple[Loihi2Array, list[tuple]]],
+           reads: int = 16, seed: int = 0) -> dict[str, Any]:
+    """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``) in Lava and
+    compare (module docstring); ``updates``: per matrix, the array as it was before a
+    stretch of its own training and that stretch's updates ``(post, pre, lr, stream)``
+    (:func:`cml_edge.grid.in_lava.training_updates`), replayed one epoch each."""
     venv_python()  # before any work
     rng = np.random.default_rng(seed)
-    lrs = dict(zip(MATRICES, (cml.config.lr_q, cml.config.lr_k, cml.config.lr_v)))
     work: dict[str, Any] = {}
     plan_reads = []
     for name, arr in zip(MATRICES, cml.arrays):
@@ -239,8 +244,9 @@ def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
         work.update(read_work(arr, name, X, transposed))
     work["reads"] = np.array([n for n, *_ in plan_reads])
     plan_learn, skipped = [], {}
-    for name, arr in zip(MATRICES, cml.arrays):
-        rule, Xs, Ys = _updates(arr, lrs[name], epochs, rng)
+    for name in MATRICES:
+        arr, calls = updates[name]
+        rule, Xs, Ys = engine_updates(arr, calls)
         ok = (rule[:, 0] != 0) & (rule[:, 1] < kern.MAX_TERM_SHIFT)
         skipped[name] = int((~ok).sum())
         rule, Xs, Ys = rule[ok], Xs[ok], Ys[ok]
@@ -263,12 +269,13 @@ def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
     for name, arr, rule, Xs, Ys in plan_learn:
         result_learn[name] = _compare_learning(arr, rule, Xs, Ys, got, f"{name}/learn")
     for name in MATRICES:
-        result_learn.setdefault(name, {"epochs": 0, "traces_equal": 0, "engine_equal": 0,
-                                       "weights_equal": 0})
+        result_learn.setdefault(name, {"replayed": 0, "equal": 0, "traces_equal": 0,
+                                       "engine_equal": 0, "negative_pre": 0,
+                                       "negative_post": 0})
         result_learn[name]["not_expressible"] = skipped[name]
     exact = all(r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"]
                 for r in result_reads.values()) and all(
-        r["engine_equal"] == r["epochs"] for r in result_learn.values())
+        r["equal"] == r["replayed"] for r in result_learn.values())
     return {"model": str(model), "lava": "lava-nc 0.10.0, Loihi2SimCfg(select_tag='fixed_pt')",
             "seed": seed, "reads": result_reads, "learning": result_learn,
             "sign_modes": sorted({SIGN_MODES[int(a.state.params.sign_mode)]
@@ -276,5 +283,5 @@ def verify(cml: Any, model: str, epochs: int = 20, reads: int = 16,
             "bit_exact": bool(exact)}
 
 
-__all__ = ["BUILD_COMMAND", "compare_reads", "read_vectors", "read_work", "run_lava",
-           "venv_python", "verify"]
+__all__ = ["BUILD_COMMAND", "check_replayable", "compare_reads", "engine_updates",
+           "lava_floats", "read_vectors", "read_work", "run_lava", "venv_python", "verify"]

@@ -77,35 +77,37 @@ def test_a_model_whose_learning_lava_does_not_run_is_refused(tmp_path, capsys, o
 
 
 @pytest.mark.lava
-def test_a_trained_model_reads_and_learns_in_lava_bit_for_bit(lava_env, model, capsys):
+def test_a_trained_model_reads_in_lava_and_its_own_updates_replay(lava_env, model, capsys):
+    """Reads match Lava integer for integer. The model's own first updates, replayed: W_v's
+    (a one-hot pre) epoch for epoch; W_q's and W_k's signed pre traces reach Lava's unsigned
+    x1 and are not what the emulation computed, which the JSON says (bit_exact false)."""
     assert main(["lava", "verify", str(model), "--epochs", "6", "--reads", "8", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
-    assert result["bit_exact"] is True
     for name in ("W_q", "W_k", "W_v", "W_v^T"):
         r = result["reads"][name]
         assert r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"] == 8
-    for name in ("W_q", "W_k", "W_v"):
-        r = result["learning"][name]
-        assert r["engine_equal"] == r["epochs"] == 6 - r["not_expressible"]
-        assert r["weights_equal"] >= r["traces_equal"] - 1
+    learn = result["learning"]
+    v = learn["W_v"]
+    assert v["replayed"] == 6 - v["not_expressible"] and v["negative_pre"] == 0
+    assert v["equal"] == v["engine_equal"] == v["replayed"] and v["negative_post"] > 0
+    for name in ("W_q", "W_k"):
+        assert learn[name]["negative_pre"] > 0 and learn[name]["equal"] < learn[name]["replayed"]
+    assert result["bit_exact"] is False
 
 
 @pytest.mark.lava
 def test_stochastic_traces_learn_in_lava_bit_for_bit(lava_env, tmp_path, capsys):
-    """Stochastically rounded traces reach Lava as graded spikes like any others: the
-    engine's arithmetic on them is Lava's, integer for integer."""
+    """Stochastically rounded traces reach Lava as graded spikes like any others: on W_v's
+    own updates (a one-hot pre) the engine's arithmetic on them is Lava's, integer for
+    integer, and the replay continues epoch for epoch."""
     path = tmp_path / "s.npz"
     assert main(["train", "--backend", "loihi2", "--set", "traces=stochastic", "--arena", "6",
-                 "--walks", "2", "--steps", "60", "--path", "reference", "--out",
-                 str(path)]) == 0
+                 "--walks", "2", "--steps", "60", "--schedule", "step", "--path", "reference",
+                 "--out", str(path)]) == 0
     capsys.readouterr()
     assert main(["lava", "verify", str(path), "--epochs", "6", "--reads", "8", "--json"]) == 0
-    result = json.loads(capsys.readouterr().out)
-    assert result["bit_exact"] is True
-    for name in ("W_q", "W_k", "W_v"):
-        r = result["learning"][name]
-        assert r["engine_equal"] == r["epochs"] == 6 - r["not_expressible"]
-        assert r["weights_equal"] >= r["traces_equal"] - 1
+    v = json.loads(capsys.readouterr().out)["learning"]["W_v"]
+    assert v["equal"] == v["engine_equal"] == v["replayed"] == 6 - v["not_expressible"]
 
 
 @pytest.mark.lava
