@@ -11,9 +11,9 @@ with W_v's range where its learned weights live (``w_max_v`` 0.02, as the device
 set it) instead of four times its initial weights' largest.
 
 What it shows (docs/devices/crossbar.md, "Levels on the noise-free preset"): on
-``ideal``, W_v's range is 4 max|W_v(0)| (about 1.45) while the learned W_v entries are
-about 0.002 (at most about 0.01), so below about a thousand levels one level is larger
-than every learned entry. W_v then holds a few entries at +-1 level, left there by the
+``ideal``, W_v's range is 4 max|W_v(0)| (about 1.4) while the learned W_v entries are
+about 0.002, so below about a thousand levels one level is larger than a typical
+learned entry. W_v then holds a few entries at +-1 level, left there by the
 digital accumulator's remainder (a commit moves whole levels), and which few differ from
 seed to seed: success rises with the levels, and between neighbouring counts it moves by
 the spread of that draw over the seeds, not by the count.

@@ -107,15 +107,14 @@ def run_in_lava(cml: CML, arena: GridArena, pairs: Pairs, max_steps: int,
         raise InputError(f"the plans still reached reads Lava had not run after {MAX_ROUNDS} "
                          "rounds")
     tick("decisions against the emulation", 0, 1)
-    decisions, equal = _decisions(cml, arena, pairs, res, max_steps)
+    decisions, equal = _decisions(cml, arena, pairs, res)
     tick("decisions against the emulation", 1, 1)
     return {**summarize(res.final, res.steps, pairs), "decisions": decisions,
             "decisions_equal": equal, "rounds": rounds,
             "lava_reads": sum(len(v) for r in reads for v in r.read.values())}
 
 
-def _decisions(cml: CML, arena: GridArena, pairs: Pairs, res: Any,
-               max_steps: int) -> tuple[int, int]:
+def _decisions(cml: CML, arena: GridArena, pairs: Pairs, res: Any) -> tuple[int, int]:
     """(decisions, how many the emulation takes alike in the same cell): each decision of
     ``res`` replanned by the emulation for one step from its cell."""
     starts, goals, nexts = [], [], []

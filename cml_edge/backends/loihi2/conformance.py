@@ -137,7 +137,8 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
     p = arr.state.params
     W = arr.state.w.astype(np.int64)
     W = W.T if transposed else W
-    pay, scales = _payloads(arr, X)
+    pay, _ = _payloads(arr, X)
+    floats = lava_floats(arr, X, u)
     same_a = same_u = same_read = wraps = dense_wraps = 0
     for t, x in enumerate(X):
         sums = W @ pay[t]
@@ -148,7 +149,7 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
         same_a += bool((a == a_out[t]).all())
         same_u += bool((np.array([v for v, _ in mine]) == u[t]).all())
         read = arr.rmatvec(x) if transposed else arr.matvec(x)
-        same_read += bool((read == lava_floats(arr, x[None], u[t][None])[0]).all())
+        same_read += bool((read == floats[t]).all())
     return {"vectors": len(X), "a_out_equal": same_a, "u_equal": same_u,
             "read_equal": same_read, "neuron_wraps": wraps, "dense_wraps": dense_wraps}
 

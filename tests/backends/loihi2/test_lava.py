@@ -49,14 +49,18 @@ def test_a_missing_environment_is_one_line_naming_the_build_command(model, tmp_p
     assert "bash scripts/lava_env.sh" in err
 
 
-def test_bad_counts_and_other_models_are_refused(model, tmp_path, capsys):
+@pytest.fixture(scope="module")
+def int8_model(tmp_path_factory):
+    path = tmp_path_factory.mktemp("int8") / "i.npz"
+    assert main(["train", "--backend", "int8", "--arena", "4", "--walks", "1", "--steps",
+                 "10", "--out", str(path)]) == 0
+    return path
+
+
+def test_bad_counts_and_other_models_are_refused(model, int8_model, capsys):
     assert main(["lava", "verify", str(model), "--epochs", "1001"]) == 2
     assert "--epochs 1001 is beyond 1000" in capsys.readouterr().err
-    int8 = tmp_path / "i.npz"
-    assert main(["train", "--backend", "int8", "--arena", "4", "--walks", "1", "--steps",
-                 "10", "--out", str(int8)]) == 0
-    capsys.readouterr()
-    assert main(["lava", "verify", str(int8)]) == 2
+    assert main(["lava", "verify", str(int8_model)]) == 2
     assert "lava verify runs loihi2 models" in capsys.readouterr().err
 
 
@@ -167,15 +171,13 @@ def test_the_navigator_plans_in_lava_with_the_emulation_s_decisions(lava_env, mo
     assert r["success_rate"] == r["emulation_success_rate"]
 
 
-def test_lava_run_refuses_other_models_before_any_work(tmp_path, capsys, monkeypatch):
+def test_lava_run_refuses_other_models_before_any_work(int8_model, tmp_path, capsys,
+                                                       monkeypatch):
     monkeypatch.setenv(conformance.VENV_VARIABLE, str(tmp_path / "none"))
-    int8 = tmp_path / "i.npz"
-    assert main(["train", "--backend", "int8", "--arena", "4", "--walks", "1", "--steps",
-                 "10", "--out", str(int8)]) == 0
     capsys.readouterr()
-    assert main(["lava", "run", str(int8)]) == 2
+    assert main(["lava", "run", str(int8_model)]) == 2
     assert "lava run plans with loihi2 models" in capsys.readouterr().err
-    assert main(["lava", "run", str(int8), "--trials", "1001"]) == 2
+    assert main(["lava", "run", str(int8_model), "--trials", "1001"]) == 2
     assert "--trials 1001 is beyond 1000" in capsys.readouterr().err
 
 
