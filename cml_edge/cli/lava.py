@@ -105,7 +105,8 @@ def show_verify(r: dict[str, Any]) -> None:
     rows = [(f"read {name}", f"{x['read_equal']} of {x['vectors']} vectors equal (a_out "
              f"{x['a_out_equal']}, u {x['u_equal']})") for name, x in r["reads"].items()]
     rows += [(f"learning {name}", f"{x['equal']} of {x['replayed']} replayed updates end on "
-              f"the emulation's weights ({x['negative_pre']} negative pre trace entries "
-              f"sent; {x['not_expressible']} not expressible)")
+              f"the emulation's weights ({x['negative_pre']:,} negative pre trace entries "
+              f"sent, {x['offset']} epochs offset, {x['decayed']} traces decayed; "
+              f"{x['not_expressible']} not expressible)")
              for name, x in r["learning"].items()]
     print("\n".join(labelled([*rows, ("bit exact", "yes" if r["bit_exact"] else "no")])))

@@ -18,16 +18,21 @@ What is compared (:func:`verify`):
   (:func:`cml_edge.grid.in_lava.training_updates`), become the rule literal and traces as
   the emulation forms them (:func:`~cml_edge.backends.loihi2.kernels.engine_traces`, with
   the array's own stream); Lava's ``LearningDense`` runs them one epoch each (t_epoch 1),
-  from the weights the training had before them, the pre neurons' graded spikes carrying
-  2 X and a source the post traces Y. Compared per epoch: the traces the rule read (Lava
-  decays each trace for one step with time constant 65535 before the rule reads it, a
-  stochastic rounding that can move a trace by one), the weights Lava wrote against the
-  emulation's engine arithmetic on Lava's traces with Lava's write-back draws
-  (``ConnVarRandom``: NumPy's generator seeded 2; ``engine_equal``), and against the same
-  from the emulation's own traces, epoch after epoch (``equal`` of ``replayed``); how many
-  negative pre and post trace entries were sent (``negative_pre``, ``negative_post``:
-  Lava's pre trace is unsigned). An epoch whose term shift is 16 or more (the emulation
-  saturates the term; Lava's rule exponent stops at 8) is not expressible and is counted.
+  from the weights the training had before them, with the rule ``m * 2^(k - 7) * x0 * x1
+  * y1`` (``(x1 - 64)`` for a signed pre vector), the pre neurons' graded spikes carrying
+  2 X (2 (X + 64) offset) and a source the post traces Y. The emulation's randomness is
+  its own stream; the comparison puts Lava's draws in its place (the write-back's
+  ``ConnVarRandom`` and the traces' decay ``TraceRandom``s, NumPy generators whose seeds
+  and positions :func:`_compare_learning` names). Compared per epoch: the traces the rule
+  read (x after the one step of decay the emulation models, y as written:
+  ``traces_equal``), the weights
+  Lava wrote against the emulation's engine arithmetic on Lava's traces
+  (``engine_equal``), and against the same from the emulation's own traces, epoch after
+  epoch (``equal`` of ``replayed``); how many negative pre and post trace entries were
+  sent (``negative_pre``, ``negative_post``), how many epochs carried the offset
+  (``offset``) and how many trace entries the decay moved (``decayed``). An epoch whose
+  term shift is 16 or more (the emulation saturates the term; Lava's rule exponent stops
+  at 8) is not expressible and is counted.
 """
 
 from __future__ import annotations
@@ -52,6 +57,7 @@ BUILD_COMMAND = "bash scripts/lava_env.sh"
 VENV_VARIABLE = "CML_EDGE_LAVA_VENV"
 RUNTIME = Path(__file__).with_name("lava_runtime.py")
 LAVA_DRAW_SEED = 2  # ConnVarRandom's seed in LearningConnectionModelBitApproximate
+LAVA_RULE_SEED = 0  # the rule's rng_seed: TraceRandom's seeds are it (x) and it + 2 (y)
 LEARN_BITS = (8, 9)  # a LearningDense's num_weight_bits (other modes, mixed): at these,
 # truncate_weights keeps every weight the engine writes, whenever a process starts
 
@@ -155,28 +161,36 @@ def compare_reads(arr: Loihi2Array, X: np.ndarray, transposed: bool, a_out: np.n
 
 
 def engine_updates(arr: Loihi2Array, calls: list[tuple]) -> tuple[np.ndarray, ...]:
-    """The rule literal (m, k), pre traces X and post traces Y of each update
-    ``(post, pre, lr, stream)`` of ``arr`` (``stream``: the array's random stream just
-    before it), as the emulation forms them."""
+    """The rule literal (m, k, c) (c: the pre traces' offset, 0 or 64), pre traces X and
+    post traces Y, as the neurons send them (before the rule's one step of trace decay), of
+    each update ``(post, pre, lr, stream)`` of ``arr`` (``stream``: the array's random
+    stream just before it), as the emulation forms them."""
     rows, cols = arr.shape
     p = arr.state.params
-    rule = np.zeros((len(calls), 2), np.int64)
+    rule = np.zeros((len(calls), 3), np.int64)
     Xs = np.zeros((len(calls), cols), np.int64)
     Ys = np.zeros((len(calls), rows), np.int64)
     stochastic = p.traces == kern.STOCHASTIC and p.terms != kern.EXACT
     for t, (post, pre, lr, stream) in enumerate(calls):
-        m, k, _ = kern.engine_traces(post, pre, rows, cols, float(lr),
-                                     int(p.scale_exp) - int(p.exp), stochastic, stream.copy(),
-                                     Xs[t], Ys[t])
-        rule[t] = (m, k)
+        m, k, c, _ = kern.engine_traces(post, pre, rows, cols, float(lr),
+                                        int(p.scale_exp) - int(p.exp), stochastic,
+                                        stream.copy(), Xs[t], Ys[t])
+        rule[t] = (m, k, c)
     return rule, Xs, Ys
+
+
+def lava_draws(seed: int, count: int) -> np.ndarray:
+    """The first ``count`` numbers of one of Lava's generators (``TraceRandom``,
+    ``ConnVarRandom``: NumPy's ``default_rng(seed).random(1)`` per draw, the first at
+    construction)."""
+    return np.random.default_rng(seed).random(count)
 
 
 def _engine_epoch(w: np.ndarray, mode: int, m: int, k: int, X: np.ndarray, Y: np.ndarray,
                   r: float) -> np.ndarray:
     """One epoch of the emulation's engine arithmetic (kernels: engine_term, accumulate,
-    write_back) on weights w with the pre traces X (x0: X != 0; signed, as the emulation
-    forms them), post traces Y and draw r."""
+    write_back) on weights w with the pre factors X (x0: X != 0; signed, x1 - c), post
+    traces Y and draw r, as the rule reads them."""
     lo, hi = (-256, 255) if mode == kern.MIXED else ((0, 255) if mode == kern.EXCITATORY
                                                      else (-255, 0))
     out = w.copy()
@@ -190,26 +204,43 @@ def _engine_epoch(w: np.ndarray, mode: int, m: int, k: int, X: np.ndarray, Y: np
     return out
 
 
-def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str) -> dict[str, Any]:
+def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str,
+                      tau: int) -> dict[str, Any]:
+    """Epoch t of a process ran its step n = draw[t]: Lava's write-back draw is
+    ``ConnVarRandom``'s number n (seed 2), its x and y traces' decay draws the
+    ``TraceRandom``s' number 2 n (two advances a step; seeds: the rule's rng_seed, 0, and
+    rng_seed + 2). Lava shows the x traces as the rule read them and the y traces as
+    written (its 3-factor model keeps the decayed y in the epoch's history): Lava's y
+    traces are decayed here for its own engine arithmetic."""
     mode = int(arr.state.params.sign_mode)
-    draws = np.random.default_rng(LAVA_DRAW_SEED).random(int(got[f"{name}/draw"].max()) + 1)
+    steps = got[f"{name}/draw"].astype(np.int64)
+    draws = lava_draws(LAVA_DRAW_SEED, int(steps.max()) + 1)
+    x_decay = lava_draws(LAVA_RULE_SEED, 2 * int(steps.max()) + 1)
+    y_decay = lava_draws(LAVA_RULE_SEED + 2, 2 * int(steps.max()) + 1)
+    d = float(np.exp(-1 / np.array([tau]))[0])  # as Lava's _decay_trace forms it
     w_lava = arr.state.w.astype(np.int64)
     w_own = w_lava.copy()
-    same_traces = same_engine = same_weights = 0
+    same_traces = same_engine = same_weights = decays = 0
     for t in range(len(rule)):
-        m, k = (int(v) for v in rule[t])
-        x1 = np.where(Xs[t] > 0, got[f"{name}/x1"][t], 0)
-        y1 = got[f"{name}/y1"][t]
-        r = float(draws[int(got[f"{name}/draw"][t])])
+        m, k, c = (int(v) for v in rule[t])
+        n = int(steps[t])
+        xs, ys = Xs[t].copy(), Ys[t].copy()  # the emulation's, as the rule reads them
+        kern.decay_traces(xs, len(xs), c, ys, len(ys), d, x_decay[2 * n], y_decay[2 * n])
+        decays += int((xs != Xs[t]).sum() + (ys != Ys[t]).sum())
+        x1 = np.where(Xs[t] != 0, got[f"{name}/x1"][t] - c, 0)
+        y1 = got[f"{name}/y1"][t].copy()
+        same_traces += bool((x1 == xs).all() and (y1 == Ys[t]).all())
+        kern.decay_traces(x1, 0, c, y1, len(y1), d, 0.0, y_decay[2 * n])
+        r = float(draws[n])
         lava_w = got[f"{name}/weights"][t]
-        same_traces += bool((x1 == Xs[t]).all() and (y1 == Ys[t]).all())
         same_engine += bool((_engine_epoch(w_lava, mode, m, k, x1, y1, r) == lava_w).all())
-        w_own = _engine_epoch(w_own, mode, m, k, Xs[t], Ys[t], r)
+        w_own = _engine_epoch(w_own, mode, m, k, xs, ys, r)
         same_weights += bool((w_own == lava_w).all())
         w_lava = lava_w
     return {"replayed": len(rule), "equal": same_weights, "traces_equal": same_traces,
             "engine_equal": same_engine, "negative_pre": int((Xs < 0).sum()),
-            "negative_post": int((Ys < 0).sum())}
+            "negative_post": int((Ys < 0).sum()), "offset": int((rule[:, 2] != 0).sum()),
+            "decayed": decays}
 
 
 def check_replayable(cml: Any, model: str, schedule: str) -> None:
@@ -228,11 +259,13 @@ def check_replayable(cml: Any, model: str, schedule: str) -> None:
 
 
 def verify(cml: Any, model: str, updates: dict[str, tuple[Loihi2Array, list[tuple]]],
-           reads: int = 16, seed: int = 0) -> dict[str, Any]:
+           reads: int = 16, seed: int = 0, trace_tau: int = kern.TRACE_TAU) -> dict[str, Any]:
     """Run ``cml`` (a CML with loihi2 arrays, loaded from the file ``model``) in Lava and
     compare (module docstring); ``updates``: per matrix, the array as it was before a
     stretch of its own training and that stretch's updates ``(post, pre, lr, stream)``
-    (:func:`cml_edge.grid.in_lava.training_updates`), replayed one epoch each."""
+    (:func:`cml_edge.grid.in_lava.training_updates`), replayed one epoch each.
+    ``trace_tau``: the traces' decay time constant in Lava and in the comparison (the
+    chip's 65535; a short one makes decays common, for testing their model)."""
     venv_python()  # before any work
     rng = np.random.default_rng(seed)
     work: dict[str, Any] = {}
@@ -259,7 +292,7 @@ def verify(cml: Any, model: str, updates: dict[str, tuple[Loihi2Array, list[tupl
                      f"{name}/learn/params": np.array([d["weight_exp"], LEARN_BITS[
                          d["sign_mode"] == "MIXED"]]),
                      f"{name}/learn/X": Xs, f"{name}/learn/Y": Ys,
-                     f"{name}/learn/rule": rule})
+                     f"{name}/learn/rule": rule, f"{name}/learn/tau": np.array(trace_tau)})
         plan_learn.append((name, arr, rule, Xs, Ys))
     work["learn"] = np.array([f"{n}/learn" for n, *_ in plan_learn])
     got = run_lava(work)
@@ -268,11 +301,12 @@ def verify(cml: Any, model: str, updates: dict[str, tuple[Loihi2Array, list[tupl
                     for name, arr, X, transposed in plan_reads}
     result_learn = {}
     for name, arr, rule, Xs, Ys in plan_learn:
-        result_learn[name] = _compare_learning(arr, rule, Xs, Ys, got, f"{name}/learn")
+        result_learn[name] = _compare_learning(arr, rule, Xs, Ys, got, f"{name}/learn",
+                                               trace_tau)
     for name in MATRICES:
         result_learn.setdefault(name, {"replayed": 0, "equal": 0, "traces_equal": 0,
                                        "engine_equal": 0, "negative_pre": 0,
-                                       "negative_post": 0})
+                                       "negative_post": 0, "offset": 0, "decayed": 0})
         result_learn[name]["not_expressible"] = skipped[name]
     exact = all(r["a_out_equal"] == r["u_equal"] == r["read_equal"] == r["vectors"]
                 for r in result_reads.values()) and all(

@@ -32,12 +32,30 @@ Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
 ``LearningRuleApplierBitApprox``) forms a product term and writes back:
 
 1. lr becomes the rule's literal m 2^e_lr with a 4-bit signed mantissa |m| in 4..7 (the
-   most precise of Lava's [-8, 7]; :func:`lr_literal`); post and pre become 7-bit
-   traces (Lava ``W_TRACE`` = 7) in sign-magnitude: |Y_i| = |rint(post_i 2^-e_y)| <= 127
-   and |X_j| <= 127, one power-of-two scale per vector; the sign goes into the rule
-   term's mantissa (a rule of four terms, x+ y+, x- y-, -x+ y-, -x- y+, of which each
-   synapse has one nonzero);
-2. each synapse's product term as ``LearningRuleApplierBitApprox.apply`` forms it:
+   most precise of Lava's [-8, 7]; :func:`lr_literal`); post and pre become traces with
+   one power-of-two scale per vector. The post traces Y_i = rint(post_i 2^-e_y), |Y_i| <=
+   127, reach the synapses signed, as the post neurons' third factor (Lava's ``y1``,
+   written by ``s_in_y1``). The pre trace is Lava's ``x1``, set by the pre neuron's graded
+   spike to round(payload / 2) and unsigned (0..127). A pre vector without a negative
+   entry travels as it is: X_j <= 127, payload 2 X_j, rule factor ``x1``. A pre vector
+   with one (W_q's position o', W_k's state s) is carried offset: |X_j| <= 63,
+   payload 2 (X_j + 64), and the rule's factor ``(x1 - 64)``, a constant Lava's rule
+   syntax holds (``Factor.const``; the engine adds it before the product and clips the
+   factor to [-128, 127]): one bit of the pre trace's resolution for its sign, and no
+   neuron, synapse or spike more. A zero entry does not spike, so its synapses form no
+   term (the rule's ``x0``). The host picks the offset per update from the sign of the
+   vector, as it picks the scales (:func:`engine_traces`);
+2. the traces as the rule reads them: Lava's engine evaluates a term with dependency x0
+   on the traces at the pre spike's time in the epoch, one step after the spike (and the
+   third factor's write): each trace decayed for one step with time constant 65535 (the
+   longest a 16-bit constant holds; the one Lava's 3-factor rule gives ``y1``, and
+   ``x1``'s here), ``_decay_trace``'s floor(v e^(-1/65535)) plus one where a uniform draw
+   (one per epoch for the x traces, one for the y traces, each shared by the vector) is
+   below the fraction: a trace v loses one unit (a negative one gains one) with
+   probability about |v| / 65535 (:func:`decay_traces`; an offset pre trace decays as
+   x1 = X + 64). Lava's ``y1`` variable keeps the undecayed value (its 3-factor model
+   writes the history back to the x traces only);
+3. each synapse's product term as ``LearningRuleApplierBitApprox.apply`` forms it:
    P = (m X_j Y_i) >> 3 (two 7-bit factors and the 4-bit mantissa are 18 bits, shifted
    by 18 - 15; an arithmetic shift: negative terms floor away from zero, as on the
    chip), then P << k with k = e_lr + e_x + e_y + S - E + 10 the rule's stored exponent
@@ -51,7 +69,7 @@ Update, W += lr post pre^T, as Lava's learning engine (``connection.py``,
    ``stochastic`` the traces are rounded stochastically at the same final scales, the
    pre traces with their low 3 - t bits zero (t the trailing zero bits of m), so that
    the shift by 3 is exact and each term unbiased (:func:`engine_traces`);
-3. the write-back at the end of a learning epoch (:func:`end_epoch`), as
+4. the write-back at the end of a learning epoch (:func:`end_epoch`), as
    ``_apply_learning_rules``: the accumulator (which holds w << 7 plus the epoch's terms)
    is saturated by sign mode (excitatory >= 0, inhibitory <= 0), stochastically rounded to
    the weight: up when r 2^7 < its 7 fraction bits, r one uniform draw shared by every
@@ -70,10 +88,10 @@ engine forms its terms once per epoch from traces, and no single term expresses 
 CML's sum of a walk's outer products, so this is the emulation of an engine that keeps
 its accumulator across the epoch.
 
-Randomness: the array's counter-based stream (``uniform(rng[0], rng[1])``), advanced by
-one per shared draw or by rows x cols per epoch with independent draws, and, with
-``traces`` ``stochastic``, by one per trace entry with a fraction (post, then pre) at
-each update.
+Randomness: the array's counter-based stream (``uniform(rng[0], rng[1])``), advanced at
+each update that forms terms by one per trace entry with a fraction (post, then pre) with
+``traces`` ``stochastic``, then by two (the x and y traces' decay draws), and at each
+write-back by one shared draw or by rows x cols with independent draws.
 
 Counters (``Loihi2Array.counter_names``): ``macs`` / ``weight_reads`` the synaptic
 operations of reads (nonzero payloads x fan-out); ``neuron_wraps``; ``update_macs``
@@ -122,6 +140,10 @@ ACC_MAX = 32767  # learning accumulator: clip(., -(2^15) - 1, 2^15 - 1) (Lava's 
 ACC_MIN = -32769
 FRAC_BITS = 7  # W_ACCUMULATOR_S - W_SYN_VAR_S = 16 - 9
 TRACE_MAX = 127  # 7-bit traces
+PRE_OFFSET = 64  # a signed pre trace X travels as x1 = X + 64, read by the factor (x1 - 64)
+SIGNED_TRACE_MAX = PRE_OFFSET - 1  # |X| <= 63: x1 in 1..127
+TRACE_TAU = 65535  # the traces' decay time constant: Lava's y1 (Loihi3FLearningRule), and x1
+TRACE_DECAY = math.exp(-1.0 / TRACE_TAU)  # one step of it (np.exp gives the same double)
 PRODUCT_SHIFT = 3  # 7 + 7 + 4 (W_S_MANT) - 15
 MAX_TERM_SHIFT = 16  # a term shifted by >= 16 saturates the accumulator whatever it is
 LR_MANT_BITS = 3  # |m| < 8: 4-bit signed mantissa
@@ -330,7 +352,8 @@ def lr_literal(lr):
 @kernel
 def engine_term(m, x, y, k):
     """(term, saturated): one product term as ``LearningRuleApplierBitApprox`` forms it
-    for the rule ``m 2^(k - 7) x1 y1`` (k the stored exponent e + 7): (m x y) >> 3, << k
+    for the rule ``m 2^(k - 7) x1 y1`` (k the stored exponent e + 7; x the factor, x1 - 64
+    for an offset pre trace): (m x y) >> 3, << k
     (k >= 16 saturates whatever the product), clipped to [-32769, 32767]."""
     v = (m * x * y) >> np.int64(PRODUCT_SHIFT)
     if v == 0:
@@ -432,7 +455,7 @@ def coarsen(deficit, X, nx, Y, ny):
 
 @kernel
 def end_epoch(state):
-    """The write-back of a learning epoch (module docstring, step 3); the accumulator
+    """The write-back of a learning epoch (module docstring, step 4); the accumulator
     then holds w << 7 again."""
     w = state.w
     acc = state.acc
@@ -634,24 +657,35 @@ def stochastic_at(x, n, e, key, ctr, out):
 
 
 @kernel
+def _has_negative(v, n):
+    i = 0
+    while i < n and v[i] >= 0:
+        i += 1
+    return i < n
+
+
+@kernel
 def engine_traces(post, pre, rows, cols, lr, gain_exp, stochastic, rng, X, Y):
-    """(m, k, draws): the rule literal's mantissa m and the term's shift k of the update
-    lr post pre^T (module docstring, steps 1-2), with the traces in Y[:rows] (post) and
-    X[:cols] (pre); ``gain_exp`` is scale_exp - weight_exp. Where k would be negative,
-    the traces are formed coarser (:func:`coarsen`) and k is 0. The rule this is in
-    Lava's syntax: ``m * 2^(k - 7) * x0 * x1 * y1``.
+    """(m, k, c, draws): the rule literal's mantissa m, the term's shift k and the pre
+    traces' offset c (0, or :data:`PRE_OFFSET` for a pre vector with a negative entry) of
+    the update lr post pre^T (module docstring, step 1), with the traces, as the neurons
+    send them, in Y[:rows] (post) and X[:cols] (pre); ``gain_exp`` is scale_exp -
+    weight_exp. Where k would be negative, the traces are formed coarser (:func:`coarsen`)
+    and k is 0. The rule this is in Lava's syntax: ``m * 2^(k - 7) * x0 * x1 * y1``, or
+    with ``(x1 - 64)`` for x1 where c is 64.
 
     With ``stochastic`` (``traces`` ``stochastic``, for m != 0) the pre traces keep
-    :func:`exact_shift_bits` low bits zero (their scale holds max |pre| in 127 >> z),
-    the coarsening is chosen on the nearest traces as above, and then both vectors are
-    rounded stochastically at their final scales (:func:`stochastic_at`, post first,
-    then pre) from the stream ``rng`` (key, next counter; advanced by the draws, which
-    are returned; 0 otherwise)."""
+    :func:`exact_shift_bits` low bits zero (their scale holds max |pre| in qmax >> z,
+    qmax 127 or 63), the coarsening is chosen on the nearest traces as above, and then
+    both vectors are rounded stochastically at their final scales (:func:`stochastic_at`,
+    post first, then pre) from the stream ``rng`` (key, next counter; advanced by the
+    draws, which are returned; 0 otherwise)."""
     m, e_lr = lr_literal(lr)
     sr = stochastic and m != 0
     z = exact_shift_bits(m) if sr else 0
+    c = PRE_OFFSET if _has_negative(pre, cols) else 0
     e_y = quantize_vector(post, rows, TRACE_MAX, Y)
-    e_x = quantize_vector(pre, cols, TRACE_MAX >> z, X)
+    e_x = quantize_vector(pre, cols, (SIGNED_TRACE_MAX if c else TRACE_MAX) >> z, X)
     k = e_lr + e_x - z + e_y + gain_exp + PRODUCT_SHIFT + FRAC_BITS
     cx = 0
     cy = 0
@@ -666,12 +700,36 @@ def engine_traces(post, pre, rows, cols, lr, gain_exp, stochastic, rng, X, Y):
         for j in range(cols):
             X[j] <<= np.int64(z)
         rng[1] = np.uint64(ctr + draws)
-        return m, k, draws
+        return m, k, c, draws
     if cx > 0:
         quantize_at(pre, cols, e_x + cx, X)
     if cy > 0:
         quantize_at(post, rows, e_y + cy, Y)
-    return m, k, 0
+    return m, k, c, 0
+
+
+@kernel
+def decayed(v, d, r):
+    """One step of Lava's trace decay (``_decay_trace``): floor(d v), plus one where the
+    uniform r is below its fraction."""
+    s = d * float(v)
+    f = math.floor(s)
+    q = np.int64(f)
+    if r < s - f:
+        q += 1
+    return q
+
+
+@kernel
+def decay_traces(X, cols, c, Y, rows, d, r_x, r_y):
+    """The traces as the rule reads them (module docstring, step 2), in place: each spiking
+    pre trace (X != 0) decayed as x1 = X + c with the draw r_x, each post trace with r_y,
+    by the factor d (:data:`TRACE_DECAY`)."""
+    for j in range(cols):
+        if X[j] != 0:
+            X[j] = decayed(X[j] + c, d, r_x) - c
+    for i in range(rows):
+        Y[i] = decayed(Y[i], d, r_y)
 
 
 @kernel
@@ -683,8 +741,9 @@ def loihi2_outer_update(state, post, pre, lr, defer):
     c[OUTER_UPDATES] += 1
     Y = state.yq
     X = state.xq
-    m, k, draws = engine_traces(post, pre, rows, cols, lr, p.scale_exp - p.exp,
-                                p.traces == STOCHASTIC and p.terms != EXACT, state.rng, X, Y)
+    m, k, offset, draws = engine_traces(post, pre, rows, cols, lr, p.scale_exp - p.exp,
+                                        p.traces == STOCHASTIC and p.terms != EXACT,
+                                        state.rng, X, Y)
     c[RNG_DRAWS] += draws
     tally = state.tally
     tally[0] = 0
@@ -695,6 +754,11 @@ def loihi2_outer_update(state, post, pre, lr, defer):
             c[RNG_DRAWS] += _add_exact(state, post, pre, lr, tally)
         m = 0
     if m != 0:
+        ctr = np.int64(state.rng[1])
+        decay_traces(X, cols, offset, Y, rows, TRACE_DECAY, uniform(state.rng[0], ctr),
+                     uniform(state.rng[0], ctr + 1))
+        state.rng[1] = np.uint64(ctr + 2)
+        c[RNG_DRAWS] += 2
         _add_terms(state.acc, m, X, cols, Y, rows, k, tally)
     # tally[:3]: terms formed, product saturations, accumulator saturations
     terms = tally[0]

@@ -16,12 +16,14 @@ sends a step late).
 
 For each learning run ``L`` named in ``learn``: ``L/weights`` (out, in), ``L/sign_mode``,
 ``L/params`` [weight_exp, num_weight_bits], ``L/X`` (epochs, in) pre traces >= 0,
-``L/Y`` (epochs, out) signed post traces, ``L/rule`` (epochs, 2) the literal
-[m, k] of the rule ``m * 2^(k - 7) * x0 * x1 * y1``. A ``LearningDense`` with a
+``L/Y`` (epochs, out) signed post traces, ``L/rule`` (epochs, 3) the literal
+[m, k, c] of the rule ``m * 2^(k - 7) * x0 * (x1 - c) * y1`` (``x1`` where c is 0),
+``L/tau`` the traces' decay time constant (x1's and y1's). A ``LearningDense`` with a
 ``Loihi3FLearningRule`` (t_epoch 1, graded spikes ``OVERWRITE``) runs one step per epoch: the
-pre neurons send 2 X as their payloads (the engine's x1 is round(payload / 2)), a source
-standing in for the post neurons' third factor sends Y to ``s_in_y1``. Consecutive epochs
-with one rule share a process; a new rule starts a new process from the weights reached.
+pre neurons with X != 0 send 2 (X + c) as their payloads (the engine's x1 is
+round(payload / 2)), the others stay silent; a source standing in for the post neurons'
+third factor sends Y to ``s_in_y1``. Consecutive epochs with one rule share a process; a
+new rule starts a new process from the weights reached.
 OUT: ``L/weights`` (epochs, out, in) after each epoch, ``L/x1`` and ``L/y1`` (the traces
 the rule read, after Lava's one step of trace decay) and ``L/draw`` (the index of the
 epoch's write-back draw in its process's ``ConnVarRandom`` stream).
@@ -43,7 +45,6 @@ from lava.proc.monitor.process import Monitor
 from lava.utils.weightutils import SignMode
 
 RUN_CFG = Loihi2SimCfg(select_tag="fixed_pt")
-TRACE_TAU = 65535  # x1's decay time constant: the one Loihi3FLearningRule gives y1
 
 
 def run_read(data: dict, name: str) -> dict[str, np.ndarray]:
@@ -77,16 +78,20 @@ def run_learning(data: dict, name: str) -> dict[str, np.ndarray]:
     mode = SignMode[str(data[f"{name}/sign_mode"])]
     exp, nb = (int(v) for v in data[f"{name}/params"])
     X, Y, rule = data[f"{name}/X"], data[f"{name}/Y"], data[f"{name}/rule"]
+    tau = int(data[f"{name}/tau"])
     weights, x1, y1, draw = [], [], [], []
     t = 0
     while t < len(rule):
-        m, k = (int(v) for v in rule[t])
+        m, k, c = (int(v) for v in rule[t])
         end = t
-        while end < len(rule) and tuple(int(v) for v in rule[end]) == (m, k):
+        while end < len(rule) and tuple(int(v) for v in rule[end]) == (m, k, c):
             end += 1
-        lr = Loihi3FLearningRule(dw=f"{m} * 2^{k - 7} * x0 * x1 * y1", x1_tau=TRACE_TAU,
+        factor = f"(x1 - {c})" if c else "x1"
+        lr = Loihi3FLearningRule(dw=f"{m} * 2^{k - 7} * x0 * {factor} * y1", x1_tau=tau,
                                  t_epoch=1, rng_seed=0)
-        pre = Source(data=(2 * X[t:end].T).astype(np.int32))
+        lr.y1_tau = tau  # Loihi3FLearningRule's own is 65535
+        spikes = X[t:end].T
+        pre = Source(data=np.where(spikes != 0, 2 * (spikes + c), 0).astype(np.int32))
         post = Source(data=Y[t:end].T.astype(np.int32))
         conn = LearningDense(weights=W, weight_exp=exp, num_weight_bits=nb, sign_mode=mode,
                              num_message_bits=24, learning_rule=lr,

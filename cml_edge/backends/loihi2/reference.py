@@ -10,7 +10,8 @@ norm, branch-free term lines, a skipped clip where no term can leave the range);
 of the same state and requires the same bits, states, counters and errors. Integer sums
 are exact in any order; the write-back's draws are one shared uniform per epoch, or one
 per synapse at counter base + i cols + j; stochastic traces take one draw per entry with
-a fraction, post then pre, before the update's terms.
+a fraction, post then pre, before the update's terms, and the traces' decay two (pre,
+post) after them.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from cml_edge.backends.loihi2.kernels import (
     MAX_TERM_SHIFT,
     NEURON_WRAPS,
     OUTER_UPDATES,
+    PRE_OFFSET,
     PRODUCT_SATURATIONS,
     PRODUCT_SHIFT,
     RMATVECS,
@@ -51,7 +53,9 @@ from cml_edge.backends.loihi2.kernels import (
     SAFE,
     SHARED,
     SIGN_CLIPS,
+    SIGNED_TRACE_MAX,
     STOCHASTIC,
+    TRACE_DECAY,
     TRACE_MAX,
     UPDATE_MACS,
     WEIGHT_BITS,
@@ -212,6 +216,24 @@ def stochastic_traces(state: State, x: np.ndarray, e: int) -> list[int]:
     return out
 
 
+def decayed(v: int, r: float) -> int:
+    """Lava's one-step trace decay: floor(v e^(-1/65535)), plus one where r is below the
+    fraction."""
+    s = TRACE_DECAY * v
+    return math.floor(s) + (r < s - math.floor(s))
+
+
+def decay(state: State, X: list[int], offset: int, Y: list[int]) -> tuple[list, list]:
+    """The traces the rule reads: each spiking pre trace decayed as x1 = X + offset with
+    the stream's next draw, each post trace with the one after."""
+    key, ctr = state.rng[0], int(state.rng[1])
+    r_x, r_y = uniform(key, ctr), uniform(key, ctr + 1)
+    state.rng[1] = np.uint64(ctr + 2)
+    state.counters[RNG_DRAWS] += 2
+    return ([decayed(v + offset, r_x) - offset if v else 0 for v in X],
+            [decayed(v, r_y) for v in Y])
+
+
 def coarsen(deficit: int, X: list[int], Y: list[int]) -> tuple[int, int]:
     """(cx, cy): bits by which the pre (X) and post (Y) traces are formed coarser so that
     the rule's exponent rises by ``deficit``: first the low bits every trace of a vector
@@ -249,8 +271,9 @@ def outer_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float,
     m, e_lr = lr_literal(lr)
     stochastic = p.traces == STOCHASTIC and p.terms != EXACT and m != 0
     z = exact_shift_bits(m) if stochastic else 0
+    offset = PRE_OFFSET if (np.asarray(pre) < 0).any() else 0  # x1 = X + 64: (x1 - 64)
     e_y, Y = quantise(post, TRACE_MAX)
-    e_x, X = quantise(pre, TRACE_MAX >> z)
+    e_x, X = quantise(pre, (SIGNED_TRACE_MAX if offset else TRACE_MAX) >> z)
     k = e_lr + e_x - z + e_y + p.scale_exp - p.exp + PRODUCT_SHIFT + FRAC_BITS
     terms = psat = asat = 0
     acc = state.acc
@@ -270,6 +293,7 @@ def outer_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float,
             X = payloads_at(pre, e_x + cx) if cx > 0 else X
             Y = payloads_at(post, e_y + cy) if cy > 0 else Y
     if m != 0:
+        X, Y = decay(state, X, offset, Y)
         terms = sum(v != 0 for v in X) * sum(v != 0 for v in Y)
         for i in range(len(Y)):
             for j in range(len(X)):

@@ -311,11 +311,11 @@ def test_shared_draw_golden():
             arr.outer_update(post, pre, lr, defer=True)
         assert (arr.state.acc - arr.state.w * 128).tolist() == [[48, 24, 12]]
         assert np.array_equal(arr.pending_float(), np.ldexp(np.array([[48.0, 24, 12]]), -16))
-        arr.commit()
-        r = uniform(stream_key(seed, STREAM_DEVICE + 2), 0)
+        arr.commit()  # after each update's two trace-decay draws (pre, post)
+        r = uniform(stream_key(seed, STREAM_DEVICE + 2), 6)
         up = [int(r * 128 < f) for f in (48, 24, 12)]
         assert arr.state.w.tolist() == [[-200 + up[0], 100 + up[1], 254 + up[2]]]
-        assert arr.counters["rng_draws"] == 1 and int(arr.state.rng[1]) == 1
+        assert arr.counters["rng_draws"] == 7 and int(arr.state.rng[1]) == 7
         assert arr.counters["epochs"] == 1 and arr.counters["update_macs"] == 9
         assert (arr.state.acc == arr.state.w.astype(np.int32) * 128).all()
 
@@ -324,9 +324,9 @@ def test_independent_draws_golden():
     arr, post, pre, lr = fractional_case(3, draws="independent")
     arr.outer_update(post, pre, lr, defer=False)  # t_epoch 1: written back now
     key = stream_key(3, STREAM_DEVICE + 2)
-    up = [int(uniform(key, j) * 128 < f) for j, f in enumerate((16, 8, 4))]
+    up = [int(uniform(key, 2 + j) * 128 < f) for j, f in enumerate((16, 8, 4))]
     assert arr.state.w.tolist() == [[-200 + up[0], 100 + up[1], 254 + up[2]]]
-    assert arr.counters["rng_draws"] == 3 and int(arr.state.rng[1]) == 3
+    assert arr.counters["rng_draws"] == 5 and int(arr.state.rng[1]) == 5
 
 
 def test_t_epoch_writes_back_every_t_updates():
@@ -372,25 +372,26 @@ def test_stochastic_traces_of_exact_values_draw_nothing_and_give_the_same_terms(
     arr, post, pre, lr = fractional_case(0, traces="stochastic")
     arr.outer_update(post, pre, lr, defer=True)
     assert (arr.state.acc - arr.state.w * 128).tolist() == [[16, 8, 4]]
-    assert arr.counters["rng_draws"] == 0 and int(arr.state.rng[1]) == 0
+    assert arr.counters["rng_draws"] == 2 and int(arr.state.rng[1]) == 2  # the decay's
 
 
 def test_stochastic_traces_make_sub_unit_terms_unbiased():
     """The sub-unit case above (float terms [2, 1, 0.5] units): the pre trace is formed
     one bit finer than nearest's (X' = [2, 1, 0.5 rounded stochastically], X = 2 X',
     Y = 1), the shift is exact, and the half unit is 1 with probability 1/2 for either
-    sign: one draw per update, at counter t for update t."""
+    sign: one draw per update, at counter 3 t for update t (each update's two trace-decay
+    draws follow it)."""
     lr = 2.0**-15
     for sign in (1.0, -1.0):
         arr, post, pre, _ = fractional_case(4, traces="stochastic")
         for _ in range(64):
             arr.outer_update(sign * post, pre, lr, defer=True)
         key = stream_key(4, STREAM_DEVICE + 2)
-        ups = sum(uniform(key, t) < 0.5 for t in range(64))
+        ups = sum(uniform(key, 3 * t) < 0.5 for t in range(64))
         pending = (arr.state.acc - arr.state.w * 128)[0]
         assert pending.tolist() == [sign * 128, sign * 64, sign * ups]
-        assert 16 < ups < 48 and arr.counters["rng_draws"] == 64
-        assert int(arr.state.rng[1]) == 64
+        assert 16 < ups < 48 and arr.counters["rng_draws"] == 192
+        assert int(arr.state.rng[1]) == 192
 
 
 @given(st.lists(st.sampled_from([0.0, 1.0, -0.5, 0.3, -1e-4, 7.0, 0.013]), min_size=1,
@@ -404,10 +405,14 @@ def test_stochastic_traces_fit_seven_bits_and_make_the_shift_exact(post, pre, lr
     X = np.zeros(len(pre), np.int64)
     Y = np.zeros(len(post), np.int64)
     rng = np.array([stream_key(1, 2), 5], np.uint64)
-    m, k, draws = kern.engine_traces(post, pre, len(post), len(pre), lr, gain, True, rng,
-                                     X, Y)
+    m, k, c, draws = kern.engine_traces(post, pre, len(post), len(pre), lr, gain, True, rng,
+                                        X, Y)
     assert int(rng[1]) == 5 + draws
-    assert np.abs(X).max() <= kern.TRACE_MAX and np.abs(Y).max() <= kern.TRACE_MAX
+    assert c == (kern.PRE_OFFSET if (pre < 0).any() else 0)
+    top = kern.SIGNED_TRACE_MAX if c else kern.TRACE_MAX  # x1 = X + c in 0..127
+    assert np.abs(X).max() <= top and np.abs(Y).max() <= kern.TRACE_MAX
+    x1 = (X + c)[X != 0]  # what the pre neurons' graded spikes set
+    assert ((x1 >= 0) & (x1 <= kern.TRACE_MAX)).all()
     assert (X % (1 << kern.exact_shift_bits(m)) == 0).all()
     assert ((m * np.outer(Y, X)) % 8 == 0).all()
     if k > 0 and np.abs(post).max() > 0:  # not coarsened: post at its finest scale
@@ -415,7 +420,36 @@ def test_stochastic_traces_fit_seven_bits_and_make_the_shift_exact(post, pre, lr
         assert (np.abs(Y - np.ldexp(post, -e_y)) < 1).all()
     X0, Y0 = np.zeros_like(X), np.zeros_like(Y)
     assert kern.engine_traces(post, pre, len(post), len(pre), lr, gain, False, rng,
-                              X0, Y0)[2] == 0 and int(rng[1]) == 5 + draws  # nearest
+                              X0, Y0)[3] == 0 and int(rng[1]) == 5 + draws  # nearest
+
+
+def test_a_signed_pre_vector_travels_offset_at_six_bits():
+    """Lava's x1 is unsigned: a pre vector with a negative entry is sent as x1 = X + 64 and
+    read by the factor (x1 - 64), so |X| <= 63 (one bit less); one without keeps 7 bits."""
+    post = np.array([0.5, -0.25])
+    for pre, c, X_want in (([1.0, 0.5, 0.25], 0, [64, 32, 16]),
+                           ([1.0, -0.5, 0.25], kern.PRE_OFFSET, [32, -16, 8])):
+        X, Y = np.zeros(3, np.int64), np.zeros(2, np.int64)
+        rng = np.array([stream_key(1, 2), 0], np.uint64)
+        got = kern.engine_traces(post, np.array(pre), 2, 3, 0.001, 20, False, rng, X, Y)
+        assert got[2] == c and X.tolist() == X_want and Y.tolist() == [64, -32]
+
+
+def test_the_trace_decay_is_lava_s():
+    """floor(v e^(-1/65535)) plus one where the draw is below the fraction, with NumPy's exp
+    and remainder as Lava's ``_decay_trace`` forms them: v moves by one (toward zero) only
+    for a draw within about |v| / 65535 of the end that the sign gives."""
+    d = np.exp(-1 / np.array([kern.TRACE_TAU]))
+    assert d[0] == kern.TRACE_DECAY
+    for v in (127, 64, 1, 0, -1, -63, -127):
+        s = d * v
+        for r in (0.0, 0.001, 0.5, 0.998, 0.9999):
+            assert kern.decayed(v, kern.TRACE_DECAY, r) == int(np.floor(s)[0] + (r < s % 1)[0])
+    assert [kern.decayed(127, kern.TRACE_DECAY, r) for r in (0.5, 0.999)] == [127, 126]
+    assert [kern.decayed(-127, kern.TRACE_DECAY, r) for r in (0.5, 0.001)] == [-127, -126]
+    X, Y = np.array([5, 0, -63]), np.array([127, -127])
+    kern.decay_traces(X, 3, kern.PRE_OFFSET, Y, 2, kern.TRACE_DECAY, 0.99999, 0.001)
+    assert X.tolist() == [4, 0, -64] and Y.tolist() == [127, -126]  # x1 69 -> 68, 1 -> 0
 
 
 def test_stochastic_traces_are_unbiased():
@@ -426,10 +460,11 @@ def test_stochastic_traces_are_unbiased():
     n = 4000
     Ys, Xs = np.zeros((n, 4), np.int64), np.zeros((n, 2), np.int64)
     for t in range(n):
-        m, k, _ = kern.engine_traces(post, pre, 4, 2, 0.001, 20, True, rng, Xs[t], Ys[t])
-    assert k > 0  # no coarsening: the scales are the vectors' finest
+        m, k, c, _ = kern.engine_traces(post, pre, 4, 2, 0.001, 20, True, rng, Xs[t],
+                                        Ys[t])
+    assert k > 0 and c == kern.PRE_OFFSET  # no coarsening; a signed pre: 6-bit magnitudes
     e_y = exponent_for(0.77, kern.TRACE_MAX)
-    e_x = exponent_for(0.6, kern.TRACE_MAX >> 1) - 1
+    e_x = exponent_for(0.6, kern.SIGNED_TRACE_MAX >> 1) - 1
     assert np.abs(Ys.mean(0) - np.ldexp(post, -e_y)).max() < 0.03
     assert np.abs(Xs.mean(0) - np.ldexp(pre, -e_x)).max() < 0.06
     assert (Ys[:, 3] == 0).all() and set(np.unique(Ys[:, 0] - Ys[:, 0].min())) == {0, 1}
