@@ -136,8 +136,10 @@ class Loihi2Config:
     with ``exact`` no trace is formed and this has no effect):
 
     - ``nearest``: each trace rounded to nearest (ties to even) at its vector's finest
-      scale, 7 bits; where the rule's exponent would be negative, rounded to nearest at a
-      coarser scale instead (:func:`~cml_edge.backends.loihi2.kernels.coarsen`).
+      scale, 7 bits (6 and a sign for a signed pre vector, which travels offset by 64:
+      :mod:`~cml_edge.backends.loihi2.kernels`, step 1); where the rule's exponent would
+      be negative, rounded to nearest at a coarser scale instead
+      (:func:`~cml_edge.backends.loihi2.kernels.coarsen`).
       A post trace is what a programmable neuron emitting its signed error as a graded
       spike (the 3-factor rule's y1, ``s_in_y1``) gives with a rounding shift; a pre
       trace the pre neuron's graded spike (Lava's x1, round(payload / 2)). Values below
@@ -148,10 +150,12 @@ class Loihi2Config:
       stream per entry with a fraction, post entries first, then pre, counted in
       ``rng_draws``), and the pre trace keeps 3 - t low bits zero, t the trailing zero
       bits of the rule's mantissa m (m = 4, the default rates' mantissa: one bit; the
-      pre trace holds 7 - (3 - t) bits): then 8 divides m X Y and the engine's
-      ``>> 3`` is exact, so every term is an unbiased estimate of lr post pre (its
-      draws independent of each other). On the chip this is the sending neurons' work:
-      a programmable neuron forming its graded spike with a dithered rounding (a
+      pre trace holds 7 - (3 - t) bits, one less when signed): then 8 divides m X Y and
+      the engine's ``>> 3`` is exact, so every term is an unbiased estimate of lr post
+      pre (its draws independent of each other; the engine's one-step decay of the
+      traces, a unit in about 65535 / |trace| epochs, aside). On the chip this is the
+      sending neurons' work: a programmable neuron forming its graded spike with a
+      dithered rounding (a
       pseudo-random number added below the payload's LSB before the shift that forms
       it), the pre neurons sending their payloads with those low bits cleared. Lava
       models no such neuron: its bit-accurate LIF has no random source, and the
