@@ -230,6 +230,7 @@ def _compare_learning(arr: Loihi2Array, rule, Xs, Ys, got: dict, name: str,
         x1 = np.where(Xs[t] != 0, got[f"{name}/x1"][t] - c, 0)
         y1 = got[f"{name}/y1"][t].copy()
         same_traces += bool((x1 == xs).all() and (y1 == Ys[t]).all())
+        # Lava's y as its rule read it (its x1 already is): the y traces alone, cols 0
         kern.decay_traces(x1, 0, c, y1, len(y1), d, 0.0, y_decay[2 * n])
         r = float(draws[n])
         lava_w = got[f"{name}/weights"][t]

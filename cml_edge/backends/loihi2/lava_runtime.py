@@ -15,7 +15,7 @@ OUT: ``R/a_out`` and ``R/u`` (steps, out), row t the read of payload row t (the 
 sends a step late).
 
 For each learning run ``L`` named in ``learn``: ``L/weights`` (out, in), ``L/sign_mode``,
-``L/params`` [weight_exp, num_weight_bits], ``L/X`` (epochs, in) pre traces >= 0,
+``L/params`` [weight_exp, num_weight_bits], ``L/X`` (epochs, in) signed pre traces,
 ``L/Y`` (epochs, out) signed post traces, ``L/rule`` (epochs, 3) the literal
 [m, k, c] of the rule ``m * 2^(k - 7) * x0 * (x1 - c) * y1`` (``x1`` where c is 0),
 ``L/tau`` the traces' decay time constant (x1's and y1's). A ``LearningDense`` with a
@@ -24,9 +24,10 @@ pre neurons with X != 0 send 2 (X + c) as their payloads (the engine's x1 is
 round(payload / 2)), the others stay silent; a source standing in for the post neurons'
 third factor sends Y to ``s_in_y1``. Consecutive epochs with one rule share a process; a
 new rule starts a new process from the weights reached.
-OUT: ``L/weights`` (epochs, out, in) after each epoch, ``L/x1`` and ``L/y1`` (the traces
-the rule read, after Lava's one step of trace decay) and ``L/draw`` (the index of the
-epoch's write-back draw in its process's ``ConnVarRandom`` stream).
+OUT: ``L/weights`` (epochs, out, in) after each epoch, ``L/x1`` (the pre traces the rule
+read, after Lava's one step of trace decay), ``L/y1`` (the post traces as written: Lava's
+3-factor model keeps their decayed values in the epoch's history only) and ``L/draw``
+(the index of the epoch's write-back draw in its process's ``ConnVarRandom`` stream).
 """
 
 from __future__ import annotations
