@@ -11,7 +11,9 @@
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the
   synaptic-array options);
 - :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
-- :mod:`~cml_edge.cli.compiling`: the line on stderr while Numba compiles on a cold cache.
+- :mod:`~cml_edge.cli.compiling`: ``compile`` (a device's kernels ahead of any run), the
+  warm-up that compiles a run's parts on every core first, and the line on stderr while
+  Numba compiles on a cold cache.
 
 Every command runs inside a recording of its stages (:mod:`cml_edge.engine.timings`): the
 long ones (:data:`TIMED`) add it to their ``--json`` object as ``timings``, and
@@ -41,7 +43,7 @@ import sys
 
 from cml_edge import __version__
 from cml_edge.backends import plugins
-from cml_edge.cli import device, dqn, export, grid, lava, limits, robot, scenario, tools
+from cml_edge.cli import compiling, device, dqn, export, grid, lava, limits, robot, scenario, tools
 from cml_edge.cli.args import distinct_outputs, hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields, show_profile
@@ -50,9 +52,9 @@ from cml_edge.engine import timings
 from cml_edge.engine.stop import interrupt_behind, raise_if_stopped, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
-COMMAND_GROUPS = (grid, tools, scenario, robot, dqn, device, export, lava)
+COMMAND_GROUPS = (grid, tools, compiling, scenario, robot, dqn, device, export, lava)
 TIMED = ("train", "evaluate", "emulate", "sweep", "report", "scenario", "breakpoint", "robot",
-         "dqn")
+         "dqn", "compile")
 """The commands whose ``--json`` object carries ``timings``."""
 PROFILE_HELP = "after the command, print its longest stages (wall, CPU and compile time) " \
                "on stderr"
@@ -92,7 +94,7 @@ def _profile_option(sub: argparse._SubParsersAction) -> None:
 
 
 COMMANDS = {"train", "evaluate", "navigate", "emulate", "robot", "dqn", "sweep", "report",
-            "bench", "scenario", "breakpoint", "device", "export", "lava"}
+            "bench", "compile", "scenario", "breakpoint", "device", "export", "lava"}
 """The command names (where ``--plugin`` options end)."""
 
 

@@ -9,6 +9,11 @@ loading from the cache broadcasts nothing. :func:`announce_compiles` listens for
 event while a command runs: at the first compile of a cml_edge function it prints one
 line saying what is being compiled and roughly how long it takes. On a warm cache nothing
 compiles and nothing is printed.
+
+Before a command's work, :func:`warm_up` compiles the parts it lists on every core
+(:mod:`cml_edge.engine.warmup`; the grid protocol's parts: :func:`protocol_units`), with
+a moving progress line on a terminal. ``cml-edge compile`` runs the same warm-up for the
+devices a user names, ahead of any run.
 """
 
 from __future__ import annotations
@@ -22,7 +27,12 @@ from contextlib import contextmanager
 from numba.core import event
 from tqdm import tqdm
 
+from cml_edge.backends import configurations
 from cml_edge.cli.args import say_estimate
+from cml_edge.core.learning import SCHEDULES
+from cml_edge.engine.warmup import Unit, cores, tiny, warm
+from cml_edge.grid.evaluation import Protocol, default_path
+from cml_edge.grid.training import TrainConfig
 from cml_edge.jit import notice
 
 COLD_MINUTES = "1-3"
@@ -42,6 +52,8 @@ def what_compiles(args: argparse.Namespace) -> tuple[str, str]:
         return "every backend's kernels and loops", BENCH_MINUTES
     if args.command == "device":
         return f"the {backend} kernels", COLD_MINUTES
+    if args.command == "compile":
+        return "the named devices' kernels and grid loops", BENCH_MINUTES
     robot = args.command == "robot" or getattr(args, "name", None) == "robot"  # a scenario
     world = "robot" if robot else "grid"
     device = f"the {backend} kernels and " if backend else "the "
@@ -61,15 +73,16 @@ class _Notice(event.Listener):
         if self.said.value:
             return
         func = getattr(ev.data["dispatcher"], "py_func", None)
-        if not getattr(func, "__module__", "").startswith(notice.OURS):
+        if not (getattr(func, "__module__", None) or "").startswith(notice.OURS):
             return
         with self.said.get_lock():
             if self.said.value:
                 return
             self.said.value = 1
         say_estimate()
-        tqdm.write(f"cml-edge: first run: compiling {self.what} ({self.minutes} min once, "
-                   "then cached)", file=sys.stderr)
+        tqdm.write(f"cml-edge: first run: compiling {self.what} on {cores()} "
+                   f"core{'s' * (cores() > 1)} ({self.minutes} min once, then cached)",
+                   file=sys.stderr)
 
     def on_end(self, ev: event.Event) -> None:
         pass
@@ -81,3 +94,81 @@ def announce_compiles(args: argparse.Namespace) -> Iterator[None]:
     first compile of a cml_edge function."""
     with event.install_listener("numba:compile", _Notice(*what_compiles(args))):
         yield
+
+
+def protocol_units(protocol: Protocol) -> list[Unit]:
+    """The parts of a grid protocol's run that compile apart (:mod:`cml_edge.grid.warmup`):
+    its device's training, then its evaluation; the training is the heavier. Each is
+    given the protocol made tiny (:func:`~cml_edge.engine.warmup.tiny`), so runs of other
+    sizes share their markers."""
+    d, on = tiny(protocol.to_dict()), protocol.backend
+    return [Unit(f"training on {on}", "cml_edge.grid.warmup:training_part", {"protocol": d},
+                 2.0),
+            Unit(f"evaluation on {on}", "cml_edge.grid.warmup:evaluation_part",
+                 {"protocol": d}, 1.0)]
+
+
+class _Line:
+    """The warm-up's moving line on stderr (a terminal only): units done, the cores, the
+    seconds so far and what is compiling."""
+
+    def __init__(self) -> None:
+        self.bar: tqdm | None = None
+
+    def __call__(self, done: int, total: int, running: str) -> None:
+        if self.bar is None:
+            self.bar = tqdm(total=total, desc=f"compiling on {cores()} cores", unit="part",
+                            file=sys.stderr, disable=not sys.stderr.isatty(), leave=False,
+                            bar_format="{desc}: {n}/{total} parts, {elapsed} {postfix}")
+        self.bar.set_postfix_str(running, refresh=False)
+        self.bar.update(done - self.bar.n)
+        self.bar.refresh()
+        if done >= total:
+            self.bar.close()
+
+
+def warm_up(units: list[Unit], workers: int | None = None) -> dict:
+    """Compile ``units`` on every core before the command's work (:func:`warm`)."""
+    return warm(units, workers, _Line())
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("compile", help="compile the kernels of the named devices ahead of "
+                       "any run, on every core")
+    p.add_argument("--backends", nargs="+", default=None, metavar="BACKEND",
+                   help="the devices (default: every registered backend); BACKEND:PRESET "
+                        "names a preset's configuration (crossbar:pcm)")
+    p.add_argument("--schedules", nargs="+", choices=SCHEDULES, default=["walk"],
+                   help="the update schedules to compile for (walk)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: one per core this process may use)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(run=cmd_compile)
+
+
+def compile_units(names: list[str] | None, schedules: list[str]) -> list[Unit]:
+    """The units of ``emulate``'s protocol, and of ``train`` and ``evaluate`` where their
+    compute path differs (the float64 shortcut), for each configuration and schedule."""
+    units = []
+    for _, backend, options in configurations(names, presets=False):
+        for schedule in schedules:
+            p = Protocol(backend=backend, backend_options=options,
+                         train=TrainConfig(schedule=schedule))
+            paths = {default_path(backend, schedule, options, counted=counted)
+                     for counted in (True, False)}
+            for path in sorted(paths):
+                units += protocol_units(Protocol(**{**p.__dict__, "path": path}))
+    return units
+
+
+def cmd_compile(args: argparse.Namespace) -> dict:
+    import time
+
+    units = compile_units(args.backends, args.schedules)
+    t0 = time.perf_counter()
+    done = warm_up(units, args.workers)
+    return {"backends": sorted({u.what.split(" on ", 1)[1] for u in units}),
+            "schedules": args.schedules, "parts": len(units), "compiled": done["units"],
+            "workers": done["workers"], "ended": done["ended"],
+            "workers_cpu_s": done["cpu_s"], "workers_compile_s": done["compile_s"],
+            "wall_time_s": time.perf_counter() - t0}

@@ -27,6 +27,7 @@ from cml_edge.cli.args import (
     positive_int,
     say_estimate,
 )
+from cml_edge.cli.compiling import protocol_units, warm_up
 from cml_edge.cli.output import (
     beyond_rows,
     device_label,
@@ -362,6 +363,7 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
             raise InputError("--chips runs the protocol's arenas; --map is not supported with it")
         # a chip's curve has one point, at the end of training
         return _emulate_chips(args, replace(protocol, epoch=config.walks), chips)
+    warm_up(protocol_units(protocol))
     result = run_protocol(protocol, progress=Progress(f"emulate {args.backend}"))
     result["command"] = command_line()
     result["cml_edge_version"] = __version__

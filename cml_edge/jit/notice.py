@@ -36,7 +36,7 @@ class _FirstCompile(event.Listener):
         if _STATE["said"] or "cml_edge.cli" in sys.modules:
             return
         func = getattr(ev.data["dispatcher"], "py_func", None)
-        if not getattr(func, "__module__", "").startswith(OURS):
+        if not (getattr(func, "__module__", None) or "").startswith(OURS):
             return
         _STATE["said"] = True
         say(f"compiling kernels ({func.__module__}.{func.__name__} first): a minute or more "

@@ -18,6 +18,16 @@ types the caller) passes the constant on to the implementation, which Numba inli
 it: a branch on it is then pruned before the rest is typed, so nothing the untaken side
 calls is compiled (the crossbar's in-place pulsed update, in a loop that only ever
 accumulates). The value is the same, so is every result.
+
+An overload inlined always is never called, yet Numba compiles it whole (type inference,
+lowering, LLVM) before inlining it, only to learn its signature
+(``Dispatcher.get_call_template``, called by the overload's typing template), and again in
+every process, since the function it compiles is made at typing time and has no file to be
+cached from: about a sixth of a cold ``emulate --backend crossbar``'s compile seconds
+(benchmarks/README.md, "First run: compile time"). :func:`install` (run when
+:mod:`cml_edge.jit` is imported) skips that compile for the routed functions'
+implementations: the template types their code itself (``type_inference_stage``) and
+the caller inlines it, so nothing of them is compiled but inside their callers.
 """
 
 from __future__ import annotations
@@ -27,8 +37,12 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
+from numba.core import dispatcher, typing
 from numba.core.types import BooleanLiteral, Literal
 from numba.extending import overload
+
+_INLINED = "_cml_edge_inlined"
+"""The attribute that marks an implementation made by :func:`routed` (always inlined)."""
 
 
 def routed(stub: Callable[..., Any]) -> Callable[..., Any]:
@@ -59,6 +73,7 @@ def routed(stub: Callable[..., Any]) -> Callable[..., Any]:
                            for p, t in zip(params, types))
         scope = {"impl": impl}
         exec(f"def {name}({arglist}):\n    return impl({passed})\n", scope)
+        setattr(scope[name], _INLINED, True)
         return scope[name]
 
     def typer(*types: Any) -> Callable[..., Any] | None:
@@ -74,3 +89,23 @@ def routed(stub: Callable[..., Any]) -> Callable[..., Any]:
     call.register = register  # type: ignore[attr-defined]
     call.implementations = registry  # type: ignore[attr-defined]
     return call
+
+
+def install() -> None:
+    """Type the routed functions' implementations without compiling them (module
+    docstring; once per process)."""
+    get_call_template = dispatcher.Dispatcher.get_call_template
+    if getattr(get_call_template, _INLINED, False):
+        return
+
+    def typed_only(self: dispatcher.Dispatcher, args: Any, kws: Any) -> Any:
+        if not getattr(self.py_func, _INLINED, False):
+            return get_call_template(self, args, kws)
+        pysig, args = self._compiler.fold_argument_types(args, kws)
+        # a template that types nothing: its signature comes from the inliner's typing
+        template = typing.make_concrete_template(f"Inlined({self.py_func.__name__})",
+                                                 key=self.py_func.__name__, signatures=[])
+        return template, pysig, args, {}
+
+    setattr(typed_only, _INLINED, True)
+    dispatcher.Dispatcher.get_call_template = typed_only  # type: ignore[method-assign]

@@ -37,6 +37,7 @@ from cml_edge.costs import ledger
 from cml_edge.engine.runs import RUN_FILE
 from cml_edge.engine.sweep import Task
 from cml_edge.engine.timings import stage
+from cml_edge.engine.warmup import task_units, warm
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.evaluation import (
@@ -54,7 +55,7 @@ from cml_edge.io.files import atomic_folder, display_path, own_folder
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
 from cml_edge.report.figures import FIGURE_FILES
-from cml_edge.report.scorecard import ScorecardPlan, build_scorecard
+from cml_edge.report.scorecard import ScorecardPlan, build_scorecard, scorecard_tasks
 from cml_edge.scenarios.registry import BUDGETS
 
 SCHEMA_VERSION = 2
@@ -237,10 +238,12 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     Every model is a task of one :class:`~cml_edge.report.batch.Batch` on ``workers``
     processes (default: the scorecard plan's, else one per core) or the Dask
     ``scheduler``, kept in run folder ``folder`` as it ends (None: a temporary folder), so
-    a report run again into the same folder resumes (``restart``: starts it over). The
-    stages: the systems' protocol seeds and operation counts, the precision sweeps and
-    the scorecard's models in one batch, then the break points' bisections in lockstep.
-    ``progress(stage, done, total)`` counts each stage's tasks."""
+    a report run again into the same folder resumes (``restart``: starts it over). On a
+    local pool, the kernels of every kind of task are first compiled on every core, each
+    task made tiny (:func:`~cml_edge.engine.warmup.task_units`; the stage ``compile``).
+    The stages: the systems' protocol seeds and operation counts, the precision sweeps
+    and the scorecard's models in one batch, then the break points' bisections in
+    lockstep. ``progress(stage, done, total)`` counts each stage's tasks."""
     t0 = time.perf_counter()
     prof = _profile(quick)
     systems = [s for s in (report_systems() if systems is None else systems) if s[1] in BACKENDS]
@@ -257,6 +260,12 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                       {"backend": backend, "options": opts, "trials": prof["trials"],
                        "walks": prof["walks"], "steps": prof["steps"]})
                  for label, backend, opts in systems]
+    if scheduler is None:  # the kernels of every task first, on every core
+        warm(task_units([t for prefix, p in sys_protocols + sweep_protocols
+                         for t in protocol_tasks(prefix, p)[:1]] + ops_tasks
+                        + [t for ts in scorecard_tasks(plan).values() for t in ts]),
+             workers or plan.workers,
+             progress and (lambda done, total, what: progress("compile", done, total)))
     with Batch(workers or plan.workers, scheduler, folder, settings, progress,
                restart) as batch:
         done = batch.run("systems", [t for prefix, p in sys_protocols + sweep_protocols

@@ -16,6 +16,7 @@ from cml_edge.cli import build_parser
 from cml_edge.cli.compiling import announce_compiles, what_compiles
 from cml_edge.cli.output import fidelity_rows, num, reference_rows, saturation, show_fields
 from cml_edge.cli.tools import show_bench
+from cml_edge.engine.warmup import cores
 from cml_edge.report.numbers import human
 from cml_edge.report.reference import PROTOCOL, context
 
@@ -246,8 +247,9 @@ def test_the_compile_notice_is_one_line_at_the_first_compile(capsys):
         kernel(1, 2)
         kernel(1.0, 2.0)
     err = capsys.readouterr().err
-    assert err == "cml-edge: first run: compiling the int8 kernels and grid loops (1-3 min " \
-                  "once, then cached)\n"
+    n = cores()
+    assert err == "cml-edge: first run: compiling the int8 kernels and grid loops on " \
+                  f"{n} core{'s' * (n > 1)} (1-3 min once, then cached)\n"
     with announce_compiles(args):
         kernel(3, 4)  # compiled: nothing to say
     assert capsys.readouterr().err == ""

@@ -1,5 +1,6 @@
 """Processes that share the kernel cache keep every entry of its index
-(cml_edge.jit.cache_lock): two that save two signatures of one function at once keep both."""
+(cml_edge.jit.cache_lock): two that save two signatures of one function at once keep both;
+two that need the same signature at once compile it once."""
 
 import json
 import subprocess
@@ -38,7 +39,7 @@ _SCRIPT = textwrap.dedent("""
     if __name__ == "__main__":
         ctx = mp.get_context("fork")
         barrier, out = ctx.Barrier(2), ctx.Queue()
-        args = (1.0, 1)  # two signatures of f
+        args = ARGS
         procs = [ctx.Process(target=child, args=(barrier, a, out)) for a in args]
         for p in procs:
             p.start()
@@ -58,9 +59,9 @@ def _slow_module(n: int = 150) -> str:
     return f"from numba import njit\n\n@njit(cache=True)\ndef f(x):\n{body}\n    return x\n"
 
 
-def _run(tmp_path) -> dict:
+def _run(tmp_path, args: str = "(1.0, 1)") -> dict:
     (tmp_path / "slowmod.py").write_text(_slow_module())
-    (tmp_path / "run.py").write_text(_SCRIPT)
+    (tmp_path / "run.py").write_text(_SCRIPT.replace("ARGS", args))
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path),
            "PATH": "/usr/bin:/bin"}
     done = subprocess.run([sys.executable, str(tmp_path / "run.py")], env=env,
@@ -74,3 +75,10 @@ def test_two_signatures_saved_at_once_both_stay_in_the_index(tmp_path):
     out = _run(tmp_path)
     assert out["compiled"] == [1, 1]  # two signatures: each compiled once
     assert out["recompiled"] == 0  # and both loaded from the cache afterwards
+
+
+@pytest.mark.slow
+def test_one_signature_needed_at_once_is_compiled_once(tmp_path):
+    out = _run(tmp_path, "(1.0, 2.0)")  # one signature in both processes
+    assert sorted(out["compiled"]) == [0, 1]  # the second waited, then loaded it
+    assert out["recompiled"] == 0

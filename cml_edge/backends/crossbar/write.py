@@ -493,40 +493,51 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, 
     programming noise. Inlined into :func:`pulsed_update`, whose per-step update writes
     few pulses per pair (a call per pair took half its time); the commit calls it
     through :func:`_pulse_pair_call`."""
-    if P.set_only:  # one device, up: G+ to raise w, G- to lower it
-        d = 0 if positive else 1
-        G, ctr = _pulse_device_n(P, step, wn, bnd, aux, Gp[i, j] if positive else Gm[i, j],
-                                 stuck[d, i, j] == OK, d, i, j, True, n, key, ctr)
-        if positive:
-            Gp[i, j] = G
-        else:
-            Gm[i, j] = G
-        mark_written(age, rn, nu, nu_z, P, d, i, j, G)
+    # the devices pulsed: a SET-only pair potentiates one, up (G+ to raise w, G- to lower
+    # it); a two-sided pair raises G+ and lowers G- (or the reverse). One move of a device
+    # is written once, in a loop over the (one or two) devices: inlined once, it compiles
+    # a third of the time of three copies (benchmarks/README.md, "First run: compile time")
+    single = P.set_only
+    first = (0 if positive else 1) if single else 0
+    nd = 1 if single else 2
+    noisy = P.dw_min_std != 0.0
+    wnoisy = P.write_noise > 0.0
+    g0 = Gp[i, j] if first == 0 else Gm[i, j]
+    g1 = Gm[i, j]
+    live0 = stuck[first, i, j] == OK
+    live1 = stuck[1, i, j] == OK
+    for _ in range(n):
+        # per pulse, each device's c2c then write-noise normal, all before the moves: the
+        # same draws in the same order, whatever is live
+        z0 = w0 = z1 = w1 = 0.0
+        if noisy:
+            z0, ctr = normal_at(key, ctr)
+        if wnoisy:
+            w0, ctr = normal_at(key, ctr)
+        if nd == 2:
+            if noisy:
+                z1, ctr = normal_at(key, ctr)
+            if wnoisy:
+                w1, ctr = normal_at(key, ctr)
+        for k in range(nd):
+            if k == 0:
+                live, g, up, z, w = live0, g0, single or positive, z0, w0
+            else:
+                live, g, up, z, w = live1, g1, not positive, z1, w1
+            if live:
+                g = _pulse_device(P, step, wn, bnd, aux, g, first + k, i, j, up, z, w)
+                if k == 0:
+                    g0 = g
+                else:
+                    g1 = g
+    if first == 0:
+        Gp[i, j] = g0
     else:
-        noisy = P.dw_min_std != 0.0
-        wnoisy = P.write_noise > 0.0
-        live_p = stuck[0, i, j] == OK
-        live_m = stuck[1, i, j] == OK
-        for _ in range(n):
-            # both devices' draws first, then both moves: the same draws in the same order,
-            # and the two devices' independent arithmetic can overlap
-            zp = wp = zm = wm = 0.0
-            if noisy:
-                zp, ctr = normal_at(key, ctr)
-            if wnoisy:
-                wp, ctr = normal_at(key, ctr)
-            if noisy:
-                zm, ctr = normal_at(key, ctr)
-            if wnoisy:
-                wm, ctr = normal_at(key, ctr)
-            if live_p:
-                Gp[i, j] = _pulse_device(P, step, wn, bnd, aux, Gp[i, j], 0, i, j, positive,
-                                         zp, wp)
-            if live_m:
-                Gm[i, j] = _pulse_device(P, step, wn, bnd, aux, Gm[i, j], 1, i, j,
-                                         not positive, zm, wm)
-        mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
-        mark_written(age, rn, nu, nu_z, P, 1, i, j, Gm[i, j])
+        Gm[i, j] = g0
+    mark_written(age, rn, nu, nu_z, P, first, i, j, g0)
+    if nd == 2:
+        Gm[i, j] = g1
+        mark_written(age, rn, nu, nu_z, P, 1, i, j, g1)
     if P.refresh != 0 and P.refresh_write == REFRESH_VERIFY:
         ctr = _refresh_pair(Gp, Gm, stuck, bnd, wn, age, rn, nu, nu_z, counters, P, i, j, key,
                             ctr)
