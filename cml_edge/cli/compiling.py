@@ -21,8 +21,10 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 
 from numba.core import event
 from tqdm import tqdm
@@ -146,28 +148,27 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_compile)
 
 
-def compile_units(names: list[str] | None, schedules: list[str]) -> list[Unit]:
+def compile_units(configs: list[tuple[str, str, dict]], schedules: list[str]) -> list[Unit]:
     """The units of ``emulate``'s protocol, and of ``train`` and ``evaluate`` where their
-    compute path differs (the float64 shortcut), for each configuration and schedule."""
+    compute path differs (the float64 shortcut), for each configuration (label, backend,
+    options) and schedule."""
     units = []
-    for _, backend, options in configurations(names, presets=False):
+    for _, backend, options in configs:
         for schedule in schedules:
             p = Protocol(backend=backend, backend_options=options,
                          train=TrainConfig(schedule=schedule))
             paths = {default_path(backend, schedule, options, counted=counted)
                      for counted in (True, False)}
-            for path in sorted(paths):
-                units += protocol_units(Protocol(**{**p.__dict__, "path": path}))
+            units += [u for path in sorted(paths) for u in protocol_units(replace(p, path=path))]
     return units
 
 
 def cmd_compile(args: argparse.Namespace) -> dict:
-    import time
-
-    units = compile_units(args.backends, args.schedules)
+    configs = configurations(args.backends, presets=False)
+    units = compile_units(configs, args.schedules)
     t0 = time.perf_counter()
     done = warm_up(units, args.workers)
-    return {"backends": sorted({u.what.split(" on ", 1)[1] for u in units}),
+    return {"backends": [label for label, _, _ in configs],
             "schedules": args.schedules, "parts": len(units), "compiled": done["units"],
             "workers": done["workers"], "ended": done["ended"],
             "workers_cpu_s": done["cpu_s"], "workers_compile_s": done["compile_s"],
