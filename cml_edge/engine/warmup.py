@@ -26,7 +26,6 @@ import hashlib
 import importlib
 import json
 import os
-import sys
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -174,6 +173,5 @@ def warm(units: Sequence[Unit], workers: int | None = None,
                 tick(len(todo) - len(left), len(todo), ", ".join(running))
         finally:
             pool.shutdown(cancel_futures=True)
-    sys.stderr.flush()
     return {"units": len(todo), "workers": n, "ended": ended, "cpu_s": cpu,
             "compile_s": compiled}

@@ -23,8 +23,8 @@ An overload inlined always is never called, yet Numba compiles it whole (type in
 lowering, LLVM) before inlining it, only to learn its signature
 (``Dispatcher.get_call_template``, called by the overload's typing template), and again in
 every process, since the function it compiles is made at typing time and has no file to be
-cached from: about a sixth of a cold ``emulate --backend crossbar``'s compile seconds
-(benchmarks/README.md, "First run: compile time"). :func:`install` (run when
+cached from: about a quarter of the CPU seconds of a cold small ``emulate --backend
+crossbar`` (benchmarks/README.md, "Every core on the first run"). :func:`install` (run when
 :mod:`cml_edge.jit` is imported) skips that compile for the routed functions'
 implementations: the template types their code itself (``type_inference_stage``) and
 the caller inlines it, so nothing of them is compiled but inside their callers.

@@ -493,10 +493,9 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, 
     programming noise. Inlined into :func:`pulsed_update`, whose per-step update writes
     few pulses per pair (a call per pair took half its time); the commit calls it
     through :func:`_pulse_pair_call`."""
-    # the devices pulsed: a SET-only pair potentiates one, up (G+ to raise w, G- to lower
-    # it); a two-sided pair raises G+ and lowers G- (or the reverse). One move of a device
-    # is written once, in a loop over the (one or two) devices: inlined once, it compiles
-    # a third of the time of three copies (benchmarks/README.md, "First run: compile time")
+    # one device move, in a loop over the one or two devices pulsed: inlined once, not
+    # three times, _pulse_pair_call compiled in 10-11 s instead of 48-64 s
+    # (benchmarks/README.md, "Every core on the first run")
     single = P.set_only
     first = (0 if positive else 1) if single else 0
     nd = 1 if single else 2
