@@ -4,7 +4,8 @@ process that started them.
 :func:`stop_on_signals` (around every ``cml-edge`` command) turns SIGTERM into
 :class:`Stopped`, a ``KeyboardInterrupt``, so SIGINT and SIGTERM unwind the same way: a
 file being written is dropped (:mod:`cml_edge.io.files` writes under a temporary name),
-the task pool ends its workers (:func:`cml_edge.engine.sweep.run_sweep`), and the command
+a pool ends its workers at once (:func:`end_pool`: the task pool of
+:mod:`cml_edge.engine.sweep`, the warm-up's of :mod:`cml_edge.engine.warmup`), and the command
 exits with 128 + the signal's number. Python handles a signal between two of its
 instructions, so a compiled loop is stopped when it returns: the training and planning
 loops are called on :func:`chunks` of at most :data:`CHUNK_STEPS` steps.
@@ -25,6 +26,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
@@ -155,3 +157,18 @@ def _watch(parent: int) -> None:
     while os.getppid() == parent:
         time.sleep(WATCH_S)
     os._exit(1)
+
+
+def end_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started, end the workers (SIGTERM, then SIGKILL after a
+    second) and wait for them."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    deadline = time.monotonic() + 1.0
+    for proc in processes:
+        proc.join(max(0.0, deadline - time.monotonic()))
+        if proc.is_alive():
+            proc.kill()
+            proc.join()

@@ -49,7 +49,7 @@ from typing import Any
 from cml_edge.core.finite import dumps
 from cml_edge.engine import timings
 from cml_edge.engine.runs import checksum, open_run, plain
-from cml_edge.engine.stop import signals_held, worker_init
+from cml_edge.engine.stop import end_pool, signals_held, worker_init
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text, folder_path
 from cml_edge.io.reading import MiB, read_text, strict_json
@@ -344,21 +344,6 @@ class _Gates:
         opened = self.firsts.pop(task.key, [])
         self.open.update(opened)
         return self.ready([t for g in opened for t in self.held.pop(g, [])])
-
-
-def end_pool(pool: ProcessPoolExecutor) -> None:
-    """Cancel what has not started, end the workers (SIGTERM, then SIGKILL after a
-    second) and wait for them."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in processes:
-        proc.terminate()
-    deadline = time.monotonic() + 1.0
-    for proc in processes:
-        proc.join(max(0.0, deadline - time.monotonic()))
-        if proc.is_alive():
-            proc.kill()
-            proc.join()
 
 
 def _run_dask(todo: list[Task], scheduler: str, finish: Callable[[str, dict], None]) -> None:

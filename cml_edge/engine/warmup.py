@@ -34,7 +34,7 @@ from typing import Any
 from numba.core import config
 
 from cml_edge.engine import timings
-from cml_edge.engine.stop import signals_held, worker_init
+from cml_edge.engine.stop import end_pool, signals_held, worker_init
 from cml_edge.io.files import atomic_write_text
 
 STEPS = 20
@@ -171,7 +171,9 @@ def warm(units: Sequence[Unit], workers: int | None = None,
                     cpu, compiled = cpu + stages["cpu_s"], compiled + stages["compile_s"]
                 running = [futures[f].what for f in left if f.running()]
                 tick(len(todo) - len(left), len(todo), ", ".join(running))
-        finally:
-            pool.shutdown(cancel_futures=True)
+        except BaseException:  # a stop (SIGINT, SIGTERM) or a failure: end the workers now
+            end_pool(pool)
+            raise
+        pool.shutdown()
     return {"units": len(todo), "workers": n, "ended": ended, "cpu_s": cpu,
             "compile_s": compiled}

@@ -150,8 +150,9 @@ def test_a_stopped_training_ends_within_seconds(sig, tmp_path):
         assert time.monotonic() - t0 < STOP_S
     finally:
         _end(proc, [])
-    assert code == 128 + getattr(signal, sig) and list(tmp_path.iterdir()) == []
-    assert "stopped by" in proc.stderr.read()
+    err = proc.stderr.read()
+    assert code == 128 + getattr(signal, sig) and list(tmp_path.iterdir()) == [], err
+    assert "stopped by" in err
 
 
 def test_a_signal_while_workers_fork_is_raised_after_and_ends_the_fork():
