@@ -74,6 +74,16 @@ CASES: dict[str, tuple[str, dict]] = {
                                            "refresh_lower": 0.01, "write_noise": 3.0}),
     "crossbar-two-sided": ("crossbar", {"preset": "pcm", "mapping": "two-sided",
                                         "compensation_read": "ideal", "commit": "program"}),
+    "crossbar-single": ("crossbar", {"preset": "reram", "mapping": "single",
+                                     "stuck_low": 0.05, "stuck_high": 0.03, "read_noise": 0.02,
+                                     "lifetime": 50.0, "drift_nu": 0.05}),
+    "crossbar-single-pcm": ("crossbar", {"preset": "pcm", "mapping": "single",
+                                         "set_only": False, "refresh": False,
+                                         "step_center": 0.3}),
+    "crossbar-single-analog": ("crossbar", {"preset": "ideal", "mapping": "single",
+                                            "update": "analog", "commit": "program",
+                                            "levels": 64, "stuck_low": 0.1,
+                                            "read_noise_pcm": 0.05}),
 }
 """Named (backend, options): each device's presets and the fields that switch its paths."""
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from cml_edge.backends.base import SynapticArray, laid_out
 from cml_edge.backends.crossbar.codes import AUX_PLANES, N_COUNTERS
+from cml_edge.backends.crossbar.conductance import swing
 from cml_edge.backends.crossbar.config import (
     DEFAULT_PRESET,
     CrossbarParams,
@@ -196,7 +197,7 @@ class CrossbarArray(SynapticArray):
     def to_float(self) -> np.ndarray:
         """The weights the array holds: (G+ - G-) / g_per_w, times the drift compensation."""
         p = self.state.params
-        scale = p.w_max / (p.g_max - p.g_min) * self.state.alpha[0]
+        scale = swing(p)[0] / (p.g_max - p.g_min) * self.state.alpha[0]
         return np.ascontiguousarray((self.state.Gp - self.state.Gm) * scale)
 
     def elapse(self, seconds: float) -> None:

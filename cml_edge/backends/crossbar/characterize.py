@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends.crossbar.array import CrossbarArray
+from cml_edge.backends.crossbar.conductance import snap_to_level
 from cml_edge.backends.crossbar.config import make_config
 from cml_edge.errors import InputError
 
@@ -58,6 +59,11 @@ def _weight_for(config: Any, g: float) -> float:
     grange = config.g_max - config.g_min
     if config.mapping == "one-sided":
         return (g - config.g_min) / grange
+    if config.mapping == "single":  # G = the reference + w g_per_w, g_per_w = range / 2
+        dG = grange / (config.levels - 1) if config.levels >= 2 else 0.0
+        ref = snap_to_level(config.g_min + config.step_center * grange, config.g_min,
+                            config.g_max, dG)
+        return 2.0 * (g - ref) / grange
     return 2.0 * (g - 0.5 * (config.g_min + config.g_max)) / grange
 
 

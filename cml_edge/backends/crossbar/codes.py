@@ -26,7 +26,7 @@ from cml_edge.backends.crossbar.config import COMMITS as COMMIT_MODES
 UPDATE_ANALOG, UPDATE_PULSED = UPDATES.index("analog"), UPDATES.index("pulsed")
 COMMIT_PROGRAM, COMMIT_PULSE = COMMIT_MODES.index("program"), COMMIT_MODES.index("pulse")
 BOUNDS_SOFT = BOUNDS.index("soft")
-ONE_SIDED = MAPPINGS.index("one-sided")
+TWO_SIDED, ONE_SIDED, SINGLE = (MAPPINGS.index(m) for m in ("two-sided", "one-sided", "single"))
 STEP_BOUNDS, STEP_LINEAR, STEP_SOFT, STEP_EXP, STEP_POW = (
     STEP_MODELS.index(m) for m in ("bounds", "linear", "soft", "exp", "pow"))
 C2C_MULT, C2C_ADD = C2C_MODELS.index("mult"), C2C_MODELS.index("add")
@@ -49,5 +49,6 @@ N_COUNTERS = 19
 # the planes of the state's ``aux`` per device d (G+ 0, G- 1): aux[AUX_PLANES d + k]
 AUX_GAMMA_UP, AUX_GAMMA_DOWN, AUX_REF, AUX_DECAY, AUX_RESET, AUX_PLANES = 0, 1, 2, 3, 4, 5
 
-# stuck codes (the state's ``stuck``)
-OK, STUCK_LOW, STUCK_HIGH = 0, 1, 2
+# stuck codes (the state's ``stuck``); REFERENCE: G- of a ``single`` mapping, the fixed
+# reference every write, drift and decay leaves alone
+OK, STUCK_LOW, STUCK_HIGH, REFERENCE = 0, 1, 2, 3

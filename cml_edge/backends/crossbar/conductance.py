@@ -11,7 +11,10 @@ so |w| = w_max puts one device at g_max and the other at g_min. The ``one-sided`
 (``DeviceConfig.mapping``; aihwkit's and CrossSim's default) puts the idle device at g_min
 instead: G+ = g_min + max(w, 0) g_per_w, G- = g_min + max(-w, 0) g_per_w, with the same
 g_per_w. w_max, the weight of a
-full conductance swing, is the stated weight-to-conductance scale of an array.
+full conductance swing, is the stated weight-to-conductance scale of an array. The
+``single`` map has one device per weight, G = R + w g_per_w, read against a fixed
+reference R (the level nearest the weight zero), g_per_w = (g_max - g_min) / (2 w_max):
+a full swing of the one device is 2 w_max (:func:`swing`).
 
 A device has ``levels`` evenly spaced programmable states on [g_min, g_max] (0: a
 continuous conductance), spaced dG = (g_max - g_min) / (levels - 1). One coincidence of
@@ -33,6 +36,7 @@ from __future__ import annotations
 
 import math
 
+from cml_edge.backends.crossbar.codes import SINGLE
 from cml_edge.jit.kernel import kernel
 
 
@@ -63,3 +67,13 @@ def prog_sigma(G, scale, c0, c1, c2, g_ref, g_max):
     if s < 0.0:
         return 0.0
     return scale * s * g_max / g_ref
+
+
+@kernel
+def swing(P):
+    """The weight of a full conductance swing, (g_max - g_min) / g_per_w: w_max on a pair,
+    2 w_max on a ``single`` device (its weights span the range about the reference), and
+    the devices a read's noise comes from (two, one: the reference is exact)."""
+    if P.mapping == SINGLE:
+        return 2.0 * P.w_max, 1.0
+    return P.w_max, 2.0

@@ -106,7 +106,7 @@ from cml_edge.errors import InputError
 UPDATES = ("analog", "pulsed")
 COMMITS = ("program", "pulse")
 BOUNDS = ("hard", "soft")
-MAPPINGS = ("two-sided", "one-sided")
+MAPPINGS = ("two-sided", "one-sided", "single")
 STEP_MODELS = ("bounds", "linear", "soft", "exp", "pow")
 C2C_MODELS = ("mult", "add", "complex")
 COMPENSATION_READS = ("ideal", "periphery")
@@ -257,7 +257,15 @@ class DeviceConfig:
     apart by w g_per_w / 2 each. ``one-sided`` (aihwkit ``SinglePairConductanceConverter``,
     CrossSim's default ``ONE_SIDED``): G+ = g_min + max(w, 0) g_per_w, G- = g_min +
     max(-w, 0) g_per_w: one device idles at g_min, where it drifts least in absolute
-    terms. Both have g_per_w = (g_max - g_min) / w_max."""
+    terms. Both have g_per_w = (g_max - g_min) / w_max. ``single``: one device per
+    weight (aihwkit's ``SingleRPUConfig`` tile), G = R + w g_per_w with g_per_w =
+    (g_max - g_min) / (2 w_max), read against a reference R fixed at the level nearest
+    the weight zero G0 = g_min + step_center (g_max - g_min) (a reference column
+    written once: no noise, drift or fault of its own); a pulse moves the one device up
+    or down, so the weight step dw_min is a two-sided pair's and the weights span
+    -2 step_center w_max .. 2 (1 - step_center) w_max (-w_max .. w_max at the default
+    centre; programming clips a weight to that range, not to +-w_max). Not with
+    ``set_only`` or ``refresh`` (they need a partner device)."""
     set_only: bool = False
     """SET-only devices (PCM: crystallisation is gradual, RESET is abrupt; aihwkit
     ``OneSidedUnitCell``): each pulse only potentiates, the weight decreases by
@@ -569,10 +577,12 @@ def crossbar_params(config: DeviceConfig, w_max: float) -> Any:
     dP = config.pulse_step * grange if config.pulse_step > 0 else dG
     steps = math.ceil(1.0 / config.pulse_step) if config.pulse_step > 0 else config.levels - 1
     # a pulse moves both devices of a two-sided pair (2 dP of G+ - G-), one of a SET-only
-    # pair; the controller counts it as pulse_gain times that (1: exactly 2.0, as before)
+    # pair; the controller counts it as pulse_gain times that (1: exactly 2.0, as before).
+    # A single device's full swing is 2 w_max: one pulse of dP is the pair's weight step
     devices = 1.0 if config.set_only else 2.0
+    swing = 2.0 * w_max if config.mapping == "single" else w_max
     return build_record(
-        CrossbarParams, config, dG=dG, dP=dP, w_max=w_max, g_per_w=grange / w_max,
+        CrossbarParams, config, dG=dG, dP=dP, w_max=w_max, g_per_w=grange / swing,
         dw_min=(devices * config.pulse_gain) * dP * w_max / grange,
         pulse_cap=PULSE_CAP_SWEEPS * max(steps, 0),
         dac_step=_step(1.0, config.dac_bits), adc_step=_step(config.adc_bound, config.adc_bits))
@@ -643,6 +653,11 @@ def _validate(c: DeviceConfig) -> None:
         what = "0 < c < 1" if c.step_model in ("soft", "linear") else "0 <= c < 1"
         raise InputError(f"crossbar step_center {c.step_center!r} is not allowed with "
                          f"step_model {c.step_model!r} (allowed: a fraction {what})")
+    if c.mapping == "single" and (c.set_only or c.refresh):
+        raise InputError(f"crossbar mapping 'single' is not allowed with "
+                         f"{'set_only' if c.set_only else 'refresh'} (a SET-only device and "
+                         "a refresh need the partner device of a pair; allowed: set_only "
+                         "false and refresh false, or mapping two-sided / one-sided)")
     if not 1 <= c.bm_passes <= 16:
         raise InputError(f"crossbar bm_passes {c.bm_passes!r} is not allowed (allowed: 1..16)")
     for name in ("adc_bound", "drift_t0", "prog_gref", "w_headroom", "pulse_gain",

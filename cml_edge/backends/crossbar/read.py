@@ -7,17 +7,20 @@ swapped: the transposed read of planning):
 1. the input is divided by max|x| (aihwkit's ABS_MAX noise management) and quantised
    by the DAC (``dac_bits``; :func:`_quantise_inputs`);
 2. the analog sum over the devices, y_i = sum_j (G+_ij - G-_ij) x_j, in micro-siemens
-   (:func:`_mac`), normalised by the conductance range (so that a weight of w_max reads
-   as 1);
+   (:func:`_mac`; G- the fixed reference of a ``single`` device), normalised by the
+   conductance range (so that a weight of w_max reads as 1 on a pair, 1/2 on a single);
 3. read noise, fresh on every read: each device's conductance fluctuates by
    N(0, (read_noise (g_max - g_min))^2) during the read, which puts exactly
-   N(0, 2 read_noise^2 sum_j x_j^2) on each normalised output (a sum of independent
+   N(0, 2 read_noise^2 sum_j x_j^2) on each normalised output (1 read_noise^2 on a
+   single device, whose reference is exact; a sum of independent
    Gaussians; drawn as one normal per output), plus the output noise N(0, out_noise^2),
    plus, with ``read_noise_pcm`` (PCM_READ), N(0, read_noise_pcm^2 sum_j |w_ij| x_j^2)
    (:func:`_abs_w_x2`, :func:`_add_noise`);
 4. the ADC clips at +-adc_bound (counted) and quantises (``adc_bits``;
    :func:`_convert_outputs`);
-5. the digital periphery multiplies by w_max max|x| and, after drift compensation, by
+5. the digital periphery multiplies by the full swing's weight (w_max; 2 w_max on a
+   single device: :func:`~cml_edge.backends.crossbar.conductance.swing`) max|x| and,
+   after drift compensation, by
    the array's compensation factor alpha (``state.alpha[0]``).
 
 With ``bound_management``, a read with a saturated output is repeated with the input
@@ -48,6 +51,7 @@ from cml_edge.backends.crossbar.codes import (
     DAC_CONVERSIONS,
     RNG_DRAWS,
 )
+from cml_edge.backends.crossbar.conductance import swing
 from cml_edge.backends.quant import max_abs
 from cml_edge.jit.gauss import normals
 from cml_edge.jit.kernel import kernel
@@ -270,9 +274,10 @@ def _read(Gp, Gm, xbuf, ybuf, vbuf, driven, zbuf, rejected, rng, alpha, counters
                                        driven)
             counters[BM_REREADS] += 1
         _mac(Gp, Gm, xbuf, ybuf, transposed, driven, nnz)
-        sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
+        w_swing, noisy = swing(P)
+        sigma = math.sqrt(noisy * rn * rn * sq + on * on)
         start = rng[1]
-        scale = P.w_max * div * alpha[0]
+        scale = w_swing * div * alpha[0]
         if P.read_noise_pcm > 0.0:
             _abs_w_x2(Gp, Gm, xbuf, vbuf, transposed, 1.0 / (P.g_max - P.g_min))
         saturated = _convert_outputs(ybuf, vbuf, out, n_out, P.g_min, P.g_max, P.adc_step,

@@ -59,6 +59,7 @@ from cml_edge.backends.crossbar.codes import (
     OUTER_UPDATES,
     PAIR_GRID,
     PULSES_CAPPED,
+    REFERENCE,
     REFRESH_AIHWKIT,
     REFRESH_OPEN,
     REFRESH_PULSES,
@@ -67,6 +68,7 @@ from cml_edge.backends.crossbar.codes import (
     RMATVECS,
     RNG_DRAWS,
     SET_GAUSS,
+    SINGLE,
     SPREAD_LOGNORMAL,
     SPREAD_MULT,
     STEP_BOUNDS,
@@ -76,6 +78,7 @@ from cml_edge.backends.crossbar.codes import (
     STEP_SOFT,
     STUCK_HIGH,
     STUCK_LOW,
+    TWO_SIDED,
     UPDATE_PULSED,
 )
 from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
@@ -159,7 +162,8 @@ def read(state: State, x: np.ndarray, transposed: bool, kind: int = -1) -> np.nd
         if rn != 0.0:
             for v in xs:
                 sq += v * v
-        sigma = math.sqrt(2.0 * rn * rn * sq + on * on)
+        w_swing, noisy = (2.0 * P.w_max, 1.0) if P.mapping == SINGLE else (P.w_max, 2.0)
+        sigma = math.sqrt(noisy * rn * rn * sq + on * on)
         wn = P.read_noise_pcm
         var = [0.0] * n_out
         if wn > 0.0:  # PCM_READ: sum_j |w_ij| xs_j^2, |w| = |G+ - G-| / range
@@ -173,7 +177,7 @@ def read(state: State, x: np.ndarray, transposed: bool, kind: int = -1) -> np.nd
                 s = math.sqrt(sigma * sigma + wn * wn * var[i]) if wn > 0.0 else sigma
                 y[i] = y[i] + s * rng.normal()
         # 4. the ADC clips at +-adc_bound and quantises; 5. the periphery's scale
-        scale = P.w_max * div * state.alpha[0]
+        scale = w_swing * div * state.alpha[0]
         saturated = 0
         out = np.zeros(n_out)
         for i in range(n_out):
@@ -398,11 +402,13 @@ def pulse_device(state: State, d: int, i: int, j: int, up: bool, z: float, w: fl
 
 def pulse_pair(state: State, i: int, j: int, n: int, positive: bool, rng: Stream) -> None:
     """n pulses on pair (i, j), raising the weight if ``positive``: a two-sided pair moves
-    G+ one way and G- the other per pulse, a SET-only pair potentiates G+ (or G-) alone.
+    G+ one way and G- the other per pulse, a SET-only pair potentiates G+ (or G-) alone,
+    a ``single`` device moves G+ alone, either way.
     Per pulse and device: the c2c normal (if ``dw_min_std``), then the write-noise normal
     (if ``write_noise``); then the refresh (its programming noise)."""
     P = state.params
-    devices = [0, 1] if not P.set_only else ([0] if positive else [1])
+    devices = [0] if P.mapping == SINGLE else [0, 1] if not P.set_only else \
+        ([0] if positive else [1])
     for _ in range(n):
         for d in devices:
             up = True if P.set_only else (positive if d == 0 else not positive)
@@ -646,7 +652,7 @@ def pulsed_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
         return [rng.uniform() < min(p, 1.0) for _ in range(bl)]
 
     columns = [train(A * abs(q)) for q in pre]
-    per_pair = 1 if P.set_only else 2
+    per_pair = 1 if P.set_only or P.mapping == SINGLE else 2
     for i in range(len(post)):
         row = train(B * abs(post[i]))
         c[LINE_PULSES] += sum(row)
@@ -670,11 +676,12 @@ def pulsed_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
 def analog_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) -> None:
     """The exact change (an ideal device), stochastically rounded to the grid if any: one
     uniform per cell with both factors nonzero, row by row. A SET-only pair puts the whole
-    change on G+ (raising w) or G- (lowering it)."""
+    change on G+ (raising w) or G- (lowering it), a ``single`` device on G+."""
     P = state.params
-    half = P.g_per_w if P.set_only else 0.5 * P.g_per_w
+    lone = P.mapping == SINGLE
+    half = P.g_per_w if P.set_only or lone else 0.5 * P.g_per_w
     pair = (P.pair_grid == PAIR_GRID and P.dG > 0.0 and not P.set_only
-            and P.mapping != ONE_SIDED)
+            and P.mapping == TWO_SIDED)
     rng = Stream(state)
     for i in range(len(post)):
         for j in range(len(pre)):
@@ -698,7 +705,7 @@ def analog_update(state: State, post: np.ndarray, pre: np.ndarray, lr: float) ->
                 d = math.floor(d / P.dG + rng.uniform()) * P.dG
                 if d == 0.0:
                     continue
-            for k in ([0 if d > 0.0 else 1] if P.set_only else [0, 1]):
+            for k in ([0] if lone else [0 if d > 0.0 else 1] if P.set_only else [0, 1]):
                 if state.stuck[k, i, j] == OK:
                     G = device(state, k)
                     G[i, j] = min(max(G[i, j] + d if k == 0 else G[i, j] - d, P.g_min),
@@ -718,10 +725,11 @@ def commit(state: State) -> None:
     c = state.counters
     c[COMMITS] += 1
     rng = Stream(state)
-    per_pair = 1 if P.set_only else 2
+    lone = P.mapping == SINGLE
+    per_pair = 1 if P.set_only or lone else 2
     # a write-verified two-sided pair on the pair's grid: one level of difference a step
     pair = (P.commit != COMMIT_PULSE and P.pair_grid == PAIR_GRID and P.dG > 0.0
-            and P.mapping != ONE_SIDED)
+            and P.mapping == TWO_SIDED)
     unit = P.dG / P.g_per_w if pair else P.dw_min
     if P.commit != COMMIT_PULSE and P.pulse_step > 0.0 and P.dG > 0.0:  # whole levels
         unit = P.dw_min / P.dP * P.dG
@@ -740,7 +748,7 @@ def commit(state: State) -> None:
                 delta = n * P.dG
             else:
                 state.acc[i, j] = 0.0
-                delta = a * (0.5 * P.g_per_w)
+                delta = a * (P.g_per_w if lone else 0.5 * P.g_per_w)
             if P.commit == COMMIT_PULSE:
                 if abs(n) > P.pulse_cap:  # dropped: it would only hold the pair at its bound
                     c[PULSES_CAPPED] += abs(n) - P.pulse_cap
@@ -750,7 +758,7 @@ def commit(state: State) -> None:
                 c[LINE_PULSES] += 2 * per_pair * abs(n)  # a pulse drives a row and a column
                 pulse_pair(state, i, j, abs(n), n > 0, rng)
                 continue
-            c[DEVICES_WRITTEN] += 2
+            c[DEVICES_WRITTEN] += 1 if lone else 2
             targets = [state.Gp[i, j] + delta, state.Gm[i, j] - delta]
             if P.mapping == ONE_SIDED:  # both devices retargeted from the weight they hold
                 w = (state.Gp[i, j] - state.Gm[i, j]) / P.g_per_w + \
@@ -766,7 +774,7 @@ def commit(state: State) -> None:
                     device(state, d)[i, j] = program_device(
                         P, targets[d], rng, state.bnd[2 * d, i, j], state.bnd[2 * d + 1, i, j])
                     state.wn[d, i, j] = 0.0
-            for d in range(2):
+            for d in range(1 if lone else 2):  # (a lone device's G- is its reference)
                 mark_written(state, d, i, j, targets[d])
     if P.commit == COMMIT_PULSE and P.refresh and P.refresh_write == REFRESH_OPEN:
         refresh_sweep(state, rng)
@@ -806,10 +814,13 @@ def program(state: State, W: np.ndarray) -> int:
         state.nu[d, i, j] = max(P.drift_nu + P.drift_nu_std * z, 0.0)
         state.nu_z[d, i, j] = z
     g_c = 0.5 * (P.g_min + P.g_max)
-    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and P.mapping != ONE_SIDED
+    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and P.mapping == TWO_SIDED
+    ref = level(P, P.g_min + P.step_center * (P.g_max - P.g_min))  # a single's reference
     for i, j, d in cells:  # the weights, with programming noise
-        w = min(max(W[i, j], -P.w_max), P.w_max)
-        if P.mapping == ONE_SIDED:
+        w = W[i, j] if P.mapping == SINGLE else min(max(W[i, j], -P.w_max), P.w_max)
+        if P.mapping == SINGLE:  # (clipped as a conductance, to what the device holds)
+            t = ref + w * P.g_per_w if d == 0 else ref
+        elif P.mapping == ONE_SIDED:
             t = P.g_min + max(w if d == 0 else -w, 0.0) * P.g_per_w
         elif pair:  # the pair's difference k dG, split around the centre level
             t = pair_split(P, math.floor(w * P.g_per_w / P.dG + 0.5))[d]
@@ -820,6 +831,9 @@ def program(state: State, W: np.ndarray) -> int:
             state.nu[d, i, j] = nu_of(P, G, state.nu_z[d, i, j])
         G = min(max(G + rng.normal() * prog_sigma(P, G), P.g_min), P.g_max)
         G = {STUCK_LOW: P.g_min, STUCK_HIGH: P.g_max}.get(state.stuck[d, i, j], G)
+        if P.mapping == SINGLE and d == 1:  # the reference: exact, never stuck
+            G = ref
+            state.stuck[d, i, j] = REFERENCE
         device(state, d)[i, j] = G
         state.age[d, i, j] = 0.0
         state.bnd[2 * d, i, j] = P.g_min

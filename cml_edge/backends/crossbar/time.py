@@ -32,11 +32,14 @@ from cml_edge.backends.crossbar.codes import (
     OK,
     ONE_SIDED,
     PAIR_GRID,
+    REFERENCE,
     RNG_DRAWS,
+    SINGLE,
     SPREAD_LOGNORMAL,
     SPREAD_MULT,
     STUCK_HIGH,
     STUCK_LOW,
+    TWO_SIDED,
 )
 from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
 from cml_edge.backends.crossbar.read import read
@@ -86,7 +89,8 @@ def xbar_program(state, W):
     upper and lower bound (``bound_spread``; a lower bound >= 0 uS unless ``aihwkit``),
     which clip it. Then, only where configured, per device the aihwkit extras
     (:func:`_draw_aux`) and, with ``apply_write_noise_on_set``, one normal per device for
-    its write-noise offset.
+    its write-noise offset. With the ``single`` mapping G- is the fixed reference
+    (stuck code ``REFERENCE``): its draws are made, and it holds the reference exactly.
     """
     Gp = state.Gp
     Gm = state.Gm
@@ -131,16 +135,21 @@ def xbar_program(state, W):
     half = 0.5 * P.g_per_w
     w_max = P.w_max
     one_sided = P.mapping == ONE_SIDED
-    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and not one_sided
+    single = P.mapping == SINGLE
+    pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and P.mapping == TWO_SIDED
+    ref = snap_to_level(g_min + P.step_center * (g_max - g_min), g_min, g_max, P.dG)
     for i in range(rows):
         for j in range(cols):
-            w = min(max(W[i, j], -w_max), w_max)
+            w = W[i, j] if single else min(max(W[i, j], -w_max), w_max)  # (a single
+            # device holds what its range holds: clipped as a conductance below)
             tp = tm = 0.0
             if pair:  # the pair's difference on the grid, split around the centre
                 tp, tm = pair_targets(math.floor(w * P.g_per_w / P.dG + 0.5), g_min, g_max,
                                       P.dG)
             for d in range(2):
-                if one_sided:
+                if single:  # the device about the reference, and the reference
+                    t = ref + w * P.g_per_w if d == 0 else ref
+                elif one_sided:
                     t = g_min + max(w if d == 0 else -w, 0.0) * P.g_per_w
                 elif pair:
                     t = tp if d == 0 else tm
@@ -154,7 +163,10 @@ def xbar_program(state, W):
                                     P.prog_gref, g_max)
                 G = min(max(G, g_min), g_max)
                 code = state.stuck[d, i, j]
-                if code == STUCK_LOW:
+                if single and d == 1:  # the reference: exact, never stuck (its draws made)
+                    G = ref
+                    state.stuck[d, i, j] = REFERENCE
+                elif code == STUCK_LOW:
                     G = g_min
                 elif code == STUCK_HIGH:
                     G = g_max

@@ -84,11 +84,13 @@ from cml_edge.backends.crossbar.codes import (
     REFRESHES,
     RNG_DRAWS,
     SET_GAUSS,
+    SINGLE,
     STEP_BOUNDS,
     STEP_EXP,
     STEP_LINEAR,
     STEP_POW,
     STEP_SOFT,
+    TWO_SIDED,
 )
 from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
 from cml_edge.backends.crossbar.config import REFRESH_READ_SIGMAS
@@ -126,14 +128,11 @@ def _move(g, up, s, z, P):
     g_min = P.g_min
     g_max = P.g_max
     d = P.dP * s * (1.0 + P.dw_min_std * z)
-    if P.bounds == BOUNDS_SOFT:
-        if up:
-            d *= 2.0 * (g_max - g) / (g_max - g_min)
-        else:
-            d *= 2.0 * (g - g_min) / (g_max - g_min)
+    if P.bounds == BOUNDS_SOFT:  # (values selected by up, never a branch: up is random)
+        d *= 2.0 * ((g_max - g) if up else (g - g_min)) / (g_max - g_min)
     if P.set_only and d < 0.0:  # a SET pulse never lowers G
         d = 0.0
-    g = g + d if up else g - d
+    g = g + (d if up else -d)  # (g - d exactly)
     return min(max(g, g_min), g_max)
 
 
@@ -165,25 +164,20 @@ def step_factor(g, up, lo, hi, gu, gd, P):
         else:
             ref_hi = hi
             ref_lo = lo
-        if up:
-            f = 1.0 - (gu if m == STEP_LINEAR else 1.0) * (g - g0) / (ref_hi - g0)
-        else:
-            f = 1.0 - (gd if m == STEP_LINEAR else 1.0) * (g - g0) / (ref_lo - g0)
+        gamma = (gu if up else gd) if m == STEP_LINEAR else 1.0
+        f = 1.0 - gamma * (g - g0) / ((ref_hi if up else ref_lo) - g0)
     elif m == STEP_EXP:
         if P.bound_spread != BOUND_INWARD:
             zz = 2.0 * P.exp_a * ((g - g0) / span) + P.exp_b
         else:
             zz = 2.0 * P.exp_a * ((g - lo) / span - P.step_center) + P.exp_b
-        if up:
-            f = 1.0 - P.exp_a_up * math.exp(P.exp_gamma_up * zz)
-        else:
-            f = 1.0 - P.exp_a_down * math.exp(-P.exp_gamma_down * zz)
+        f = 1.0 - (P.exp_a_up if up else P.exp_a_down) * math.exp(
+            (P.exp_gamma_up if up else -P.exp_gamma_down) * zz)
     elif m == STEP_POW:
-        r = (hi - g) / span if up else (g - lo) / span
+        r = ((hi - g) if up else (g - lo)) / span
         f = r ** P.pow_gamma if r > 0.0 else 0.0
     elif P.bounds == BOUNDS_SOFT:
-        f = 2.0 * (P.g_max - g) / (P.g_max - P.g_min) if up else \
-            2.0 * (g - P.g_min) / (P.g_max - P.g_min)
+        f = 2.0 * ((P.g_max - g) if up else (g - P.g_min)) / (P.g_max - P.g_min)
     else:
         f = 1.0
     if m == STEP_SOFT and has_reference(P):  # aihwkit's reference device: an internal
@@ -216,7 +210,7 @@ def _move_model(g, up, s, z, lo, hi, gu, gd, P):
             d = step * math.exp(math.sqrt(v) * z - 0.5 * v)
     else:
         d = step + sd * z
-    g = g + d if up else g - d
+    g = g + (d if up else -d)
     return min(max(g, lo), hi)
 
 
@@ -226,7 +220,7 @@ def _pulse_device(P, step, wn, bnd, aux, G, d, i, j, up, z, w):
     noise, the pulse moves the hidden state G - wn and a fresh offset w write_noise dG
     is read on top of it; with a reference, it moves the internal state h + ref (aihwkit
     ``SoftBoundsReferenceRPUDevice``: w += ref, the step, the bounds, w -= ref)."""
-    s = step[2 * d, i, j] if up else step[2 * d + 1, i, j]
+    s = step[2 * d + 1 - np.int64(up), i, j]  # (an index, not a branch: up is random)
     h = G - wn[d, i, j] if P.write_noise > 0.0 else G
     if P.step_model == STEP_BOUNDS:
         h = _move(h, up, s, z, P)
@@ -488,17 +482,17 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, 
                 positive, key, ctr):
     """n pulses on pair (i, j): positive raises the weight. A two-sided (bidirectional)
     pair raises G+ and lowers G- per pulse (or the reverse); a SET-only pair potentiates
-    G+ (or G-) alone. Draws per pulse and device: the c2c normal (if ``dw_min_std``),
-    then the write-noise normal (if ``write_noise``); a refresh then draws its
-    programming noise. Inlined into :func:`pulsed_update`, whose per-step update writes
-    few pulses per pair (a call per pair took half its time); the commit calls it
-    through :func:`_pulse_pair_call`."""
+    G+ (or G-) alone; a ``single`` device moves G+ alone, up or down. Draws per pulse
+    and device: the c2c normal (if ``dw_min_std``), then the write-noise normal (if
+    ``write_noise``); a refresh then draws its programming noise. Inlined into
+    :func:`pulsed_update`, whose per-step update writes few pulses per pair (a call per
+    pair took half its time); the commit calls it through :func:`_pulse_pair_call`."""
     # one device move, in a loop over the one or two devices pulsed: inlined once, not
     # three times, _pulse_pair_call compiled in 10-11 s instead of 48-64 s
     # (benchmarks/README.md, "Every core on the first run")
-    single = P.set_only
+    single = P.set_only  # one device pulsed, up: G+ or G-
     first = (0 if positive else 1) if single else 0
-    nd = 1 if single else 2
+    nd = 1 if single or P.mapping == SINGLE else 2  # a lone device: up or down
     noisy = P.dw_min_std != 0.0
     wnoisy = P.write_noise > 0.0
     g0 = Gp[i, j] if first == 0 else Gm[i, j]
@@ -696,7 +690,7 @@ def pulsed_update(state, post, pre, lr):
     if P.lifetime > 0.0:
         ctr = _decay_sweep(Gp, Gm, stuck, bnd, wn, aux, P, key, ctr)
     state.rng[1] = ctr
-    per_pair = 1 if P.set_only else 2  # devices a coincidence pulses
+    per_pair = 1 if P.set_only or P.mapping == SINGLE else 2  # devices a coincidence
     c[RNG_DRAWS] += np.int64(ctr - start)
     c[LINE_PULSES] += line_pulses
     c[COINCIDENCES] += coincidences
@@ -707,7 +701,8 @@ def pulsed_update(state, post, pre, lr):
 @kernel
 def analog_update(state, post, pre, lr):
     """The exact change (an ideal device), stochastically rounded to the grid if any. A
-    SET-only pair puts the whole change on G+ (raising w) or G- (lowering it)."""
+    SET-only pair puts the whole change on G+ (raising w) or G- (lowering it), a
+    ``single`` device on G+."""
     Gp = state.Gp
     Gm = state.Gm
     P = state.params
@@ -716,8 +711,9 @@ def analog_update(state, post, pre, lr):
     g_max = P.g_max
     dG = P.dG
     set_only = P.set_only != 0
-    half = P.g_per_w if set_only else 0.5 * P.g_per_w
-    pair = P.pair_grid == PAIR_GRID and dG > 0.0 and not set_only and P.mapping != ONE_SIDED
+    lone = P.mapping == SINGLE
+    half = P.g_per_w if set_only or lone else 0.5 * P.g_per_w
+    pair = P.pair_grid == PAIR_GRID and dG > 0.0 and not set_only and P.mapping == TWO_SIDED
     stuck = state.stuck
     age, rn, nu, nu_z = state.age, state.rn, state.nu, state.nu_z
     key = state.rng[0]
@@ -752,6 +748,12 @@ def analog_update(state, post, pre, lr):
                 ctr += _ONE
                 if d == 0.0:
                     continue
+            if lone:
+                if stuck[0, i, j] == OK:
+                    Gp[i, j] = min(max(Gp[i, j] + d, g_min), g_max)
+                mark_written(age, rn, nu, nu_z, P, 0, i, j, Gp[i, j])
+                written += 1
+                continue
             if set_only:
                 k = 0 if d > 0.0 else 1
                 if stuck[k, i, j] == OK:
@@ -793,15 +795,16 @@ def commit_accumulated(state):
     rows, cols = Gp.shape
     dw_min = P.dw_min
     dG = P.dG
-    half = 0.5 * P.g_per_w
+    lone = P.mapping == SINGLE
+    half = P.g_per_w if lone else 0.5 * P.g_per_w
     pulse = P.commit == COMMIT_PULSE
     one_sided = P.mapping == ONE_SIDED
     # a write-verified two-sided pair on the pair's grid: one level of difference a step
-    pair = not pulse and P.pair_grid == PAIR_GRID and dG > 0.0 and not one_sided
+    pair = not pulse and P.pair_grid == PAIR_GRID and dG > 0.0 and P.mapping == TWO_SIDED
     unit = dG / P.g_per_w if pair else dw_min
     if not pulse and P.pulse_step > 0.0 and dG > 0.0:  # write-verified whole levels, not
         unit = dw_min / P.dP * dG  # pulses of pulse_step
-    per_pair = 1 if P.set_only else 2
+    per_pair = 1 if P.set_only or lone else 2
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
@@ -831,7 +834,7 @@ def commit_accumulated(state):
                 ctr = _pulse_pair_call(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z,
                                        counters, P, i, j, abs(n), n > 0, key, ctr)
                 continue
-            written += 2
+            written += 1 if lone else 2
             tp = Gp[i, j] + delta
             tm = Gm[i, j] - delta
             if one_sided:  # retarget both devices from the weight they hold
@@ -851,7 +854,8 @@ def commit_accumulated(state):
                                                 bnd[3, i, j])
                 wn[1, i, j] = 0.0
             mark_written(age, rn, nu, nu_z, P, 0, i, j, tp)
-            mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
+            if not lone:  # (a lone device's G- is its fixed reference)
+                mark_written(age, rn, nu, nu_z, P, 1, i, j, tm)
     if pulse and P.refresh != 0 and P.refresh_write == REFRESH_OPEN:
         ctr = _refresh_sweep(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters,
                              P, key, ctr)

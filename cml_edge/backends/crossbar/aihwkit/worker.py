@@ -25,7 +25,8 @@ torch for it (:mod:`cml_edge.backends.crossbar.aihwkit.runner` starts it). Tasks
   (``get_hidden_parameters``: bounds, step scales, reference, decay scales), as quantiles;
 - ``inference``: ``PCMLikeNoiseModel``'s programming noise, drift coefficients, drift and
   accumulated read noise applied to conductances (the calls its inference tiles make);
-- ``bench``: seconds per CML training step and planning step on three tiles.
+- ``bench``: seconds per CML training step and planning step on three tiles (a preset
+  device alone, in a one-sided pair or in a two-device vector cell, as ``cell`` asks).
 
 aihwkit's update is a gradient step, W -= lr d x^T: an up pulse is d = -1 with x = 1.
 """
@@ -248,16 +249,45 @@ def inference(req: dict[str, Any]) -> dict[str, Any]:
     return {"programming": programming, "drift": drift, "read_noise": read_noise}
 
 
+def _config(dev: Any, cell: str | None) -> Any:
+    """``bench``'s tile configuration of a preset as ``cell`` asks: ``single``, the device
+    alone on ``SingleRPUConfig``; ``one-sided``, a ``OneSidedUnitCell`` of it (a G+/G- pair,
+    one device pulsed per coincidence) without refresh; ``vector``, a ``VectorUnitCell`` of
+    it and a copy with ``update_policy`` ALL (both devices pulsed per coincidence); None, a
+    unit cell on ``UnitCellRPUConfig`` as it is, a lone device on ``SingleRPUConfig``."""
+    from copy import deepcopy
+
+    from aihwkit.simulator.configs import (
+        OneSidedUnitCell,
+        SingleRPUConfig,
+        UnitCellRPUConfig,
+        VectorUnitCell,
+        VectorUnitCellUpdatePolicy,
+    )
+
+    if cell not in (None, "single", "one-sided", "vector") or \
+            (cell is not None and hasattr(dev, "unit_cell_devices")):
+        raise ValueError(f"no cell {cell!r} of {type(dev).__name__}")
+    if cell == "one-sided":
+        dev = OneSidedUnitCell(unit_cell_devices=[dev], refresh_every=0)
+    elif cell == "vector":
+        dev = VectorUnitCell(unit_cell_devices=[dev, deepcopy(dev)],
+                             update_policy=VectorUnitCellUpdatePolicy.ALL)
+    return UnitCellRPUConfig(device=dev) if hasattr(dev, "unit_cell_devices") else \
+        SingleRPUConfig(device=dev)
+
+
 def bench(req: dict[str, Any]) -> dict[str, Any]:
     """Seconds of process CPU time (the median of ``repeats`` runs of ``steps``) per CML
     training step (each tile: one forward read of ``xs`` and one pulsed rank-one update with
     ``ds`` at its learning rate ``lrs``) and per planning step (each tile: one forward and
-    one transposed read), for float tiles (``FloatingPointRPUConfig``) or a preset device (a
-    unit cell on ``UnitCellRPUConfig``) on ``AnalogTile``s with aihwkit's default pulsed
-    update; the public tile API (``tile.forward`` / ``backward`` / ``update``) and the bare
-    compiled tile (``tile.tile``: the C++ object the public API wraps)."""
+    one transposed read), for float tiles (``FloatingPointRPUConfig``) or a preset device
+    in the unit cell ``req["cell"]`` asks (:func:`_config`) on ``AnalogTile``s with
+    aihwkit's default pulsed update; the public tile API (``tile.forward`` / ``backward`` /
+    ``update``) and the bare compiled tile (``tile.tile``: the C++ object the public API
+    wraps)."""
     import torch
-    from aihwkit.simulator.configs import FloatingPointRPUConfig, SingleRPUConfig, UnitCellRPUConfig
+    from aihwkit.simulator.configs import FloatingPointRPUConfig
     from aihwkit.simulator.tiles import AnalogTile, FloatingPointTile
 
     torch.set_num_threads(1)
@@ -266,9 +296,7 @@ def bench(req: dict[str, Any]) -> dict[str, Any]:
     if req["device"] == "float":
         tiles = [FloatingPointTile(o, i, FloatingPointRPUConfig()) for o, i in shapes]
     else:
-        dev = _device(req["device"])
-        cfg = UnitCellRPUConfig(device=dev) if hasattr(dev, "unit_cell_devices") else \
-            SingleRPUConfig(device=dev)
+        cfg = _config(_device(req["device"]), req.get("cell"))
         tiles = [AnalogTile(o, i, cfg) for o, i in shapes]
     for t, (o, i), lr in zip(tiles, shapes, req["lrs"]):
         t.set_learning_rate(lr)
