@@ -54,6 +54,7 @@ from types import SimpleNamespace
 from typing import Any
 
 from cml_edge.cli.args import hold_estimate
+from cml_edge.engine.warmup import cores as usable_cores
 from cml_edge.errors import InputError
 
 TASK_BYTES = 8e3
@@ -127,7 +128,7 @@ def estimate(args: Any) -> Estimate:
     if getattr(args, "robot_command", None) == "navigate":  # goals one after another
         args = SimpleNamespace(**{**vars(args), "trials": _get(args, "goals")})
     models = seeds * chips
-    step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(os.cpu_count() or 1)
+    step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(usable_cores())
     trials = _get(args, "trials", 0)
     budget = _get(args, "max_steps", _get(args, "max_actions", PLAN_BUDGET))
     plans, plan_label = trials * budget, f"--trials {trials:g} x a step budget of {budget:g}"

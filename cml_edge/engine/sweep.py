@@ -50,6 +50,7 @@ from cml_edge.core.finite import dumps
 from cml_edge.engine import timings
 from cml_edge.engine.runs import checksum, open_run, plain
 from cml_edge.engine.stop import end_pool, signals_held, worker_init
+from cml_edge.engine.warmup import cores
 from cml_edge.errors import InputError, RunError
 from cml_edge.io.files import atomic_write_text, folder_path
 from cml_edge.io.reading import MiB, read_text, strict_json
@@ -213,7 +214,8 @@ def run_sweep(tasks: Iterable[Task], out: str | Path, workers: int | None = None
 
 class Workers:
     """Where tasks run, kept for as many sweeps as its ``with`` block lasts: this process
-    (``workers=1``), a local process pool (``workers`` > 1, default one per core; started
+    (``workers=1``), a local process pool (``workers`` > 1, default one per core this
+    process may run on, :func:`~cml_edge.engine.warmup.cores`; started
     by the first sweep that needs it, so its workers keep what they compiled or loaded
     from Numba's cache from one sweep to the next) or a Dask cluster (``scheduler``, an
     address; :func:`check_scheduler`). A block left by an exception (a stop request too)
@@ -224,7 +226,7 @@ class Workers:
             check_scheduler(scheduler)
         if workers is not None and (isinstance(workers, bool) or workers < 1):
             raise InputError(f"workers {workers!r} is not an integer >= 1")
-        self.n = workers or os.cpu_count() or 1
+        self.n = workers or cores()
         self.scheduler = scheduler
         self._pool: ProcessPoolExecutor | None = None
 
