@@ -39,8 +39,8 @@ from typing import Any
 import numpy as np
 
 from cml_edge.backends.crossbar.array import CrossbarArray
-from cml_edge.backends.crossbar.conductance import snap_to_level
-from cml_edge.backends.crossbar.config import make_config
+from cml_edge.backends.crossbar.conductance import reference_level
+from cml_edge.backends.crossbar.config import crossbar_params, make_config
 from cml_edge.errors import InputError
 
 TARGETS_AT_25US = (0.5, 1.0, 2.5, 5.0, 10.0, 12.5, 15.0, 20.0, 22.5)
@@ -60,10 +60,7 @@ def _weight_for(config: Any, g: float) -> float:
     if config.mapping == "one-sided":
         return (g - config.g_min) / grange
     if config.mapping == "single":  # G = the reference + w g_per_w, g_per_w = range / 2
-        dG = grange / (config.levels - 1) if config.levels >= 2 else 0.0
-        ref = snap_to_level(config.g_min + config.step_center * grange, config.g_min,
-                            config.g_max, dG)
-        return 2.0 * (g - ref) / grange
+        return 2.0 * (g - reference_level(crossbar_params(config, 1.0))) / grange
     return 2.0 * (g - 0.5 * (config.g_min + config.g_max)) / grange
 
 

@@ -77,3 +77,11 @@ def swing(P):
     if P.mapping == SINGLE:
         return 2.0 * P.w_max, 1.0
     return P.w_max, 2.0
+
+
+@kernel
+def reference_level(P):
+    """The fixed reference of a ``single`` mapping: the level nearest the weight zero
+    G0 = g_min + step_center (g_max - g_min)."""
+    return snap_to_level(P.g_min + P.step_center * (P.g_max - P.g_min), P.g_min, P.g_max,
+                         P.dG)

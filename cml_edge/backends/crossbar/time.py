@@ -41,7 +41,12 @@ from cml_edge.backends.crossbar.codes import (
     STUCK_LOW,
     TWO_SIDED,
 )
-from cml_edge.backends.crossbar.conductance import pair_targets, prog_sigma, snap_to_level
+from cml_edge.backends.crossbar.conductance import (
+    pair_targets,
+    prog_sigma,
+    reference_level,
+    snap_to_level,
+)
 from cml_edge.backends.crossbar.read import read
 from cml_edge.jit.gauss import normal_at
 from cml_edge.jit.kernel import kernel
@@ -137,7 +142,7 @@ def xbar_program(state, W):
     one_sided = P.mapping == ONE_SIDED
     single = P.mapping == SINGLE
     pair = P.pair_grid == PAIR_GRID and P.dG > 0.0 and P.mapping == TWO_SIDED
-    ref = snap_to_level(g_min + P.step_center * (g_max - g_min), g_min, g_max, P.dG)
+    ref = reference_level(P)
     for i in range(rows):
         for j in range(cols):
             w = W[i, j] if single else min(max(W[i, j], -w_max), w_max)  # (a single

@@ -122,6 +122,13 @@ def _pulse_train(p, bl, key, ctr):
 
 
 @njit(cache=True, inline="always")
+def devices_pulsed(P):
+    """The devices one coincidence pulses: both of a two-sided or one-sided pair, one of a
+    SET-only pair or a ``single`` mapping."""
+    return 1 if P.set_only or P.mapping == SINGLE else 2
+
+
+@njit(cache=True, inline="always")
 def _move(g, up, s, z, P):
     """A device at conductance g after one pulse (up or down) of relative size s (1 + c2c z)
     (step_model ``bounds``, the model of earlier releases)."""
@@ -490,9 +497,9 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, 
     # one device move, in a loop over the one or two devices pulsed: inlined once, not
     # three times, _pulse_pair_call compiled in 10-11 s instead of 48-64 s
     # (benchmarks/README.md, "Every core on the first run")
-    single = P.set_only  # one device pulsed, up: G+ or G-
-    first = (0 if positive else 1) if single else 0
-    nd = 1 if single or P.mapping == SINGLE else 2  # a lone device: up or down
+    set_only = P.set_only  # one device pulsed, up: G+ or G-
+    first = (0 if positive else 1) if set_only else 0
+    nd = devices_pulsed(P)
     noisy = P.dw_min_std != 0.0
     wnoisy = P.write_noise > 0.0
     g0 = Gp[i, j] if first == 0 else Gm[i, j]
@@ -514,7 +521,7 @@ def _pulse_pair(Gp, Gm, stuck, step, bnd, wn, aux, age, rn, nu, nu_z, counters, 
                 w1, ctr = normal_at(key, ctr)
         for k in range(nd):
             if k == 0:
-                live, g, up, z, w = live0, g0, single or positive, z0, w0
+                live, g, up, z, w = live0, g0, set_only or positive, z0, w0
             else:
                 live, g, up, z, w = live1, g1, not positive, z1, w1
             if live:
@@ -690,7 +697,7 @@ def pulsed_update(state, post, pre, lr):
     if P.lifetime > 0.0:
         ctr = _decay_sweep(Gp, Gm, stuck, bnd, wn, aux, P, key, ctr)
     state.rng[1] = ctr
-    per_pair = 1 if P.set_only or P.mapping == SINGLE else 2  # devices a coincidence
+    per_pair = devices_pulsed(P)
     c[RNG_DRAWS] += np.int64(ctr - start)
     c[LINE_PULSES] += line_pulses
     c[COINCIDENCES] += coincidences
@@ -804,7 +811,7 @@ def commit_accumulated(state):
     unit = dG / P.g_per_w if pair else dw_min
     if not pulse and P.pulse_step > 0.0 and dG > 0.0:  # write-verified whole levels, not
         unit = dw_min / P.dP * dG  # pulses of pulse_step
-    per_pair = 1 if P.set_only or lone else 2
+    per_pair = devices_pulsed(P)
     key = state.rng[0]
     ctr = state.rng[1]
     start = ctr
