@@ -290,7 +290,7 @@ def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
                  walks: int = 100, steps: int = 900,
                  curves_from: dict[str, Any] | None = None) -> dict[str, Any]:
     """Train the CML of each seed (the protocol's 100 x 900 random walks, per-walk
-    updates, float64; :func:`cml_edge.grid.evaluation.train_and_evaluate`) and plan that
+    updates, float64; :func:`cml_edge.grid.seed_run.train_and_evaluate`) and plan that
     seed's pairs (``pairs_of(seed)``) at the end. The evaluation curve is the mean e_pos
     on the pairs after every walk (step 0 = untrained); the training time at every point
     excludes the evaluation. With ``curves_from`` (the result of another path on the same
@@ -298,8 +298,8 @@ def cml_on_pairs(seeds: Sequence[int], pairs_of, arena: GridArena, path: str,
     paths give the same weights to rounding (tests/core/test_paths.py), so only the timing is
     new."""
     from cml_edge.core.cml import CML, CMLConfig
-    from cml_edge.grid.evaluation import Evaluation, Training, train_and_evaluate
     from cml_edge.grid.planning import plan
+    from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
     from cml_edge.grid.training import TrainConfig, train
 
     training = Training(arena, TrainConfig(walks, steps), CMLConfig.for_arena(arena.size),

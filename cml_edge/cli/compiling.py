@@ -33,7 +33,8 @@ from cml_edge.backends import configurations
 from cml_edge.cli.args import say_estimate
 from cml_edge.core.learning import SCHEDULES
 from cml_edge.engine.warmup import Unit, cores, tiny, warm
-from cml_edge.grid.evaluation import Protocol, default_path
+from cml_edge.grid.paths import default_path
+from cml_edge.grid.protocol import Protocol
 from cml_edge.grid.training import TrainConfig
 from cml_edge.jit import notice
 

@@ -47,11 +47,13 @@ from cml_edge.engine import timings
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Evaluation, Protocol, default_path, run_protocol
 from cml_edge.grid.exploration import EXPLORATIONS
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
+from cml_edge.grid.paths import default_path
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
+from cml_edge.grid.protocol import Protocol, run_protocol
+from cml_edge.grid.seed_run import Evaluation
 from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.io.files import atomic_write, writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED
@@ -59,7 +61,7 @@ from cml_edge.protocol import EVAL_SEED
 
 def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
     """The training options; ``counted``: the command reports the arrays' counters, so its
-    default compute path is direct (:func:`cml_edge.grid.evaluation.default_path`)."""
+    default compute path is direct (:func:`cml_edge.grid.paths.default_path`)."""
     p.add_argument("--arena", type=arena_size, default=30, help="arena side (default 30)")
     p.add_argument("--walks", type=positive_int, default=100, help="exploration walks (100)")
     p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")

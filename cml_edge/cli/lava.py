@@ -69,7 +69,7 @@ def cmd_run(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.backends.loihi2.conformance import venv_python
     from cml_edge.cli.tools import StageProgress
     from cml_edge.core.model_file import load_model
-    from cml_edge.grid.evaluation import eval_setting
+    from cml_edge.grid.condition import Condition
     from cml_edge.grid.in_lava import run_in_lava
     from cml_edge.grid.metrics import summarize
     from cml_edge.grid.planning import plan
@@ -86,9 +86,8 @@ def cmd_run(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"{args.model!r} does not record its training arena (allowed: a "
                          "model written by cml-edge train)")
     venv_python()  # before any work
-    arena, pairs, budget = eval_setting({"trials": args.trials, "obstacles": 0, "size": None,
-                                         "eval_seed": EVAL_SEED, "max_steps": None},
-                                        int(training["arena"]))
+    ev = Condition(trials=args.trials, eval_seed=EVAL_SEED).evaluation(int(training["arena"]))
+    arena, pairs, budget = ev.arena, ev.pairs, ev.max_steps
     emulated = plan(cml, arena, pairs.starts, pairs.goals, max_steps=budget)
     result = run_in_lava(cml, arena, pairs, budget, progress=StageProgress("lava run"))
     return {"model": str(args.model), "arena": arena.size, "trials": args.trials,

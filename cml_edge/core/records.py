@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, fields
+from numbers import Integral
 from typing import Any, ClassVar, TypeVar
 
 from cml_edge.errors import InputError
@@ -26,3 +27,12 @@ class Record:
             raise InputError(f"unknown {cls.what} keys: {', '.join(sorted(unknown))} "
                              f"(allowed: {', '.join(f.name for f in fields(cls))})")  # type: ignore[arg-type]
         return cls(**d)
+
+
+def integer(name: str, value: Any, least: int, allowed: str | None = None) -> int:
+    """``value`` as an int; InputError naming ``name`` unless it is an integer >= ``least``
+    (``allowed``: how the error says what is allowed)."""
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < least:
+        raise InputError(f"{name} {value!r} is not allowed (allowed: "
+                         f"{allowed or f'an integer >= {least}'})")
+    return int(value)

@@ -5,7 +5,7 @@ per-walk updates, seed = model seed) and evaluates it under a list of evaluation
 conditions (an arena, obstacles, a map and its scenarios, a planner, a step budget),
 all on pairs drawn from the evaluation seed, so every configuration sees the same
 pairs. It returns per-trial finals and steps, so the pooled metrics over seeds
-(:func:`~cml_edge.grid.evaluation.pool_records`) are the exact ones of
+(:func:`~cml_edge.grid.metrics.pool_records`) are the exact ones of
 :func:`cml_edge.grid.metrics.summarize` over all seeds x trials, whatever ran the tasks.
 
 An experiment module defines ``NAME``, ``CLAIM`` (the paper's qualitative claim it
@@ -30,14 +30,9 @@ from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import (
-    Evaluation,
-    Training,
-    eval_setting,
-    pool_records,
-    train_and_evaluate,
-)
-from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.condition import Condition
+from cml_edge.grid.metrics import draw_pairs, pool_records
+from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
 from cml_edge.grid.training import TrainConfig
 from cml_edge.io.figures import pyplot
 from cml_edge.io.files import atomic_write_text
@@ -55,10 +50,10 @@ def eval_spec(name: str, *, size: int | None = None, obstacles: int = 0,
               map: str | None = None, scen: str | None = None, planner: str = "paper",
               max_steps: int | None = None, trials: int = 100,
               eval_seed: int = EVAL_SEED) -> dict[str, Any]:
-    """One evaluation condition (JSON-able). ``max_steps`` None: :func:`step_budget`."""
-    return {"name": name, "size": size, "obstacles": obstacles, "map": map, "scen": scen,
-            "planner": planner, "max_steps": max_steps, "trials": trials,
-            "eval_seed": eval_seed}
+    """One evaluation condition as JSON (:class:`~cml_edge.grid.condition.Condition`, checked;
+    ``max_steps`` None: the arena's :func:`~cml_edge.grid.maps.step_budget`)."""
+    return Condition(name, size, obstacles, map, scen, planner, max_steps, trials,
+                     eval_seed).to_dict()
 
 
 def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: int = 100,
@@ -68,7 +63,7 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
                eval_seed: int = EVAL_SEED,
                cml_options: dict[str, Any] | None = None) -> dict[str, Any]:
     """The task of every experiment: train model ``seed``, then run each of ``evals``
-    (:func:`cml_edge.grid.evaluation.train_and_evaluate`; ``path`` None: its default).
+    (:func:`cml_edge.grid.seed_run.train_and_evaluate`; ``path`` None: its default).
     ``cml_options``: fields of the CML's config that differ from the defaults
     (:meth:`cml_edge.core.cml.CMLConfig.for_arena`).
 
@@ -79,9 +74,7 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
     training = Training(train_arena, TrainConfig(walks, steps, explore),
                         CMLConfig.for_arena(arena, **(cml_options or {})), backend,
                         backend_options or {}, path, epoch)
-    settings = [eval_setting(spec, arena) for spec in evals]
-    evaluations = [Evaluation(ev_arena, pairs, budget, spec["planner"])
-                   for spec, (ev_arena, pairs, budget) in zip(evals, settings)]
+    evaluations = [Condition.from_dict(spec).evaluation(arena) for spec in evals]
     curve_eval = (Evaluation(train_arena, draw_pairs(train_arena, curve_trials, eval_seed))
                   if curve else None)
     run = train_and_evaluate(seed, training, evaluations, curve=curve_eval)

@@ -64,7 +64,7 @@ def rows(results: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
 def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) -> None:
     from cml_edge.core.cml import CML, CMLConfig
     from cml_edge.grid.arena import GridArena
-    from cml_edge.grid.evaluation import eval_setting
+    from cml_edge.grid.condition import Condition
     from cml_edge.grid.planning import plan
     from cml_edge.grid.training import TrainConfig, train
 
@@ -75,7 +75,8 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
         key = next(k for k in results if k.startswith(f"map-{name}-s"))
         specs = {ev["planner"]: ev for ev in results[key]["evals"]}
         spec = next(iter(specs.values()))
-        arena, pairs, budget = eval_setting(spec, 0)
+        ev = Condition.within(spec).evaluation(0)
+        arena, pairs, budget = ev.arena, ev.pairs, ev.max_steps
         cml = CML.create(CMLConfig.for_arena(arena.size), "float", 0)
         train(cml, GridArena.empty(arena.size), TrainConfig(), 0, path="factored")
         res = {p: plan(cml, arena, pairs.starts, pairs.goals, max_steps=budget,

@@ -17,8 +17,8 @@ seed is exactly the single-chip run of that seed (``cml-edge emulate`` without
 
 Each chip is one task of the sweep engine (:mod:`cml_edge.engine.sweep`: local pool or Dask,
 one atomic file per chip, resumable in the folder the user names; without one, a temporary
-folder removed at the end), running :func:`cml_edge.grid.evaluation.run_protocol`
-on the run's :class:`~cml_edge.grid.evaluation.Protocol` with its chip seed.
+folder removed at the end), running :func:`cml_edge.grid.protocol.run_protocol`
+on the run's :class:`~cml_edge.grid.protocol.Protocol` with its chip seed.
 :func:`pool_chips` pools the per-chip summaries generically: every numeric key of the
 protocol's per-seed summaries (the success rate, e_pos, the decision agreement, ...; a
 nested record's as ``key.sub``, so the weight error against the float64 twin is
@@ -44,7 +44,7 @@ from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.errors import InputError
 
 if TYPE_CHECKING:
-    from cml_edge.grid.evaluation import Protocol
+    from cml_edge.grid.protocol import Protocol
 
 DEFAULT_YIELD_TARGET = 0.95
 QUANTILES = {"p05": 0.05, "median": 0.5, "p95": 0.95}
@@ -64,9 +64,9 @@ def check_chips(n: int, yield_target: float, first: int = 0) -> None:
 
 def chip_task(chip: int, protocol: dict[str, Any]) -> dict[str, Any]:
     """One chip through the protocol (a sweep task): the protocol (as
-    :meth:`~cml_edge.grid.evaluation.Protocol.to_dict`) on chip seed ``chip``, its pooled
+    :meth:`~cml_edge.grid.protocol.Protocol.to_dict`) on chip seed ``chip``, its pooled
     summary and per-seed summaries (no curves, no counters)."""
-    from cml_edge.grid.evaluation import Protocol, run_protocol
+    from cml_edge.grid.protocol import Protocol, run_protocol
 
     result = run_protocol(replace(Protocol.from_dict(protocol), chip=chip))
     summary = {k: v for k, v in result.items()

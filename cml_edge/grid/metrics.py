@@ -5,11 +5,16 @@
 - success: the final position is the goal;
 - with obstacles, also steps / geodesic (BFS) distance, and success over the pairs that
   are connected at all.
+
+Pooled over several model seeds, the metrics are those of all seeds x trials
+(:func:`pool_records`, :func:`pool_pairs`), whatever ran the seeds.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -85,6 +90,23 @@ def summarize(final: np.ndarray, steps: np.ndarray, pairs: Pairs) -> dict[str, f
         "overhead_geodesic_mean": _mean(steps[geo_ok] / pairs.geodesic[geo_ok]),
     }
     return out
+
+
+def pool_pairs(pairs: Pairs, times: int) -> Pairs:
+    """``pairs`` repeated ``times`` times (pooling the trials of several models)."""
+    return Pairs(*(np.concatenate([a] * times) for a in
+                   (pairs.starts, pairs.goals, pairs.chebyshev, pairs.geodesic)))
+
+
+def pool_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The metrics of :func:`~cml_edge.grid.metrics.summarize` (Eqs. 8, 9) over the trials
+    of several seeds' JSON records (each with its ``final``, ``steps``, ``starts``,
+    ``goals``, ``chebyshev`` and ``geodesic`` lists)."""
+    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2) for r in records])
+    steps = np.concatenate([np.asarray(r["steps"], np.int64) for r in records])
+    pairs = Pairs(*(np.concatenate([np.asarray(r[k], np.int64) for r in records])
+                    for k in ("starts", "goals", "chebyshev", "geodesic")))
+    return summarize(final, steps, pairs)
 
 
 CONVERGENCE_TOL = 0.5  # cells: half a grid cell

@@ -1,15 +1,15 @@
 """The parts of a grid run that compile apart, each as a tiny run of itself: what the
 first run's warm-up (:mod:`cml_edge.engine.warmup`) compiles on every core.
 
-A :class:`~cml_edge.grid.evaluation.Protocol` compiles two chains of kernels that share
+A :class:`~cml_edge.grid.protocol.Protocol` compiles two chains of kernels that share
 little: its device's training loop (with the update and the commit that the schedule
 runs), and its evaluation (the drift of the idle time, the planning loop of its planner
 and of the curve, and with the fidelity the float64 twin's training loop and the decision
 replay). :func:`training_part` and :func:`evaluation_part` run each on the protocol made
 tiny (:func:`cml_edge.engine.warmup.tiny`), through the functions the protocol runs
-(:func:`~cml_edge.grid.evaluation.train_seed`,
-:func:`~cml_edge.grid.evaluation.evaluate_seed`,
-:func:`~cml_edge.grid.evaluation.run_fidelity`), so they compile what it compiles, for
+(:func:`~cml_edge.grid.seed_run.train_seed`,
+:func:`~cml_edge.grid.seed_run.evaluate_seed`,
+:func:`~cml_edge.grid.seed_run.run_fidelity`), so they compile what it compiles, for
 the same types; the evaluation plans with the untrained model (the types are the same).
 """
 
@@ -20,15 +20,9 @@ from typing import Any
 import numpy as np
 
 from cml_edge.core.cml import CML
-from cml_edge.grid.evaluation import (
-    Evaluation,
-    Protocol,
-    SeedRun,
-    evaluate_seed,
-    run_fidelity,
-    train_seed,
-)
 from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.protocol import Protocol
+from cml_edge.grid.seed_run import Evaluation, SeedRun, evaluate_seed, run_fidelity, train_seed
 
 
 def training_part(protocol: dict[str, Any]) -> None:

@@ -1,9 +1,9 @@
 """The grid as a world of the scenarios (:class:`cml_edge.core.world.World`).
 
 A run (``run``: ``arena``, ``walks``, ``steps``, ``schedule``) trains on the empty arena
-of side ``arena`` with random exploration (:func:`cml_edge.grid.evaluation.train_seed`);
+of side ``arena`` with random exploration (:func:`cml_edge.grid.seed_run.train_seed`);
 the float64 twin is :func:`cml_edge.grid.fidelity.float_twin`. A part is an evaluation
-condition (:func:`cml_edge.grid.evaluation.eval_setting`: an arena, obstacles or a map,
+condition (:class:`cml_edge.grid.condition.Condition`: an arena, obstacles or a map,
 pairs from the evaluation seed, a planner, a step budget); its record is the part's
 settings, :func:`cml_edge.grid.metrics.summarize` (Eqs. 8, 9), the per-trial finals and
 steps with the pairs, and :func:`cml_edge.grid.fidelity.seed_fidelity`. In-situ
@@ -19,10 +19,11 @@ from typing import Any, NamedTuple
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.world import PATH, Trained
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Evaluation, Training, eval_setting, pool_records, train_seed
+from cml_edge.grid.condition import Condition
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
-from cml_edge.grid.metrics import summarize
+from cml_edge.grid.metrics import pool_records, summarize
 from cml_edge.grid.planning import PlanResult
+from cml_edge.grid.seed_run import Evaluation, Training, train_seed
 from cml_edge.grid.training import TrainConfig, train
 
 RELEARN_SCHEDULE = "step"
@@ -71,7 +72,7 @@ class GridWorld:
         float_twin(seed, arena, more, cml_config, first_walk=first, twin=twin)
 
     def plan(self, cml: CML, part: Mapping[str, Any], run: Mapping[str, Any]) -> GridPlan:
-        evaluation = Evaluation(*eval_setting(part, run["arena"]), part["planner"])
+        evaluation = Condition.within(part).evaluation(run["arena"])
         return GridPlan(evaluation, evaluation.plan(cml, PATH))
 
     def summarise(self, seed: int, cml: CML, twin: CML, part: Mapping[str, Any],

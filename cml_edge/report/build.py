@@ -40,16 +40,10 @@ from cml_edge.engine.timings import stage
 from cml_edge.engine.warmup import task_units, warm
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import (
-    PROTOCOL_TASK,
-    Evaluation,
-    Protocol,
-    Training,
-    default_path,
-    pool_protocol,
-    train_and_evaluate,
-)
 from cml_edge.grid.metrics import convergence_index, draw_pairs
+from cml_edge.grid.paths import default_path
+from cml_edge.grid.protocol import PROTOCOL_TASK, Protocol, pool_protocol
+from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
 from cml_edge.grid.training import TrainConfig
 from cml_edge.io.files import atomic_folder, display_path, own_folder
 from cml_edge.protocol import EVAL_SEED
@@ -111,7 +105,7 @@ def system_protocol(backend: str, options: dict[str, Any], prof: dict[str, int])
 
 
 def protocol_tasks(prefix: str, protocol: Protocol) -> list[Task]:
-    """One task per seed of ``protocol`` (:func:`cml_edge.grid.evaluation.protocol_task`)."""
+    """One task per seed of ``protocol`` (:func:`cml_edge.grid.protocol.protocol_task`)."""
     spec = protocol.to_dict()
     return [Task(f"{prefix}-s{seed}", PROTOCOL_TASK, {"protocol": spec, "seed": seed})
             for seed in protocol.seeds]
@@ -119,7 +113,7 @@ def protocol_tasks(prefix: str, protocol: Protocol) -> list[Task]:
 
 def protocol_result(prefix: str, protocol: Protocol,
                     results: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    """:func:`~cml_edge.grid.evaluation.pool_protocol` of the tasks of
+    """:func:`~cml_edge.grid.protocol.pool_protocol` of the tasks of
     :func:`protocol_tasks`; its ``wall_time_s`` is the seeds' own, summed."""
     records = [results[t.key] for t in protocol_tasks(prefix, protocol)]
     return pool_protocol(protocol, records, sum(r["wall_s"] for r in records))

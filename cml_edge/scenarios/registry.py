@@ -20,6 +20,7 @@ from typing import Any
 
 from cml_edge.core.world import WORLDS
 from cml_edge.errors import InputError
+from cml_edge.grid.condition import Condition
 from cml_edge.grid.maps import shipped_maps, shipped_path
 from cml_edge.grid.planning import MAX_STEPS
 from cml_edge.protocol import EVAL_SEED
@@ -82,11 +83,12 @@ class Scenario:
 def part(name: str, *, size: int | None = None, obstacles: int = 0, map: str | None = None,
          scen: str | None = None, planner: str = "paper", max_steps: int | None = MAX_STEPS,
          trials: int = 100, age_s: float = 0.0, relearn_walks: int = 0) -> dict[str, Any]:
-    """One evaluation condition of a grid run (JSON-able; ``max_steps`` None: the map's
-    :func:`~cml_edge.grid.maps.step_budget`)."""
-    return {"name": name, "size": size, "obstacles": obstacles, "map": map, "scen": scen,
-            "planner": planner, "max_steps": max_steps, "trials": trials,
-            "eval_seed": EVAL_SEED, "age_s": age_s, "relearn_walks": relearn_walks}
+    """One part of a grid run as JSON: its evaluation condition
+    (:class:`~cml_edge.grid.condition.Condition`; ``max_steps`` None: the map's
+    :func:`~cml_edge.grid.maps.step_budget`), then the idle seconds and the walks of
+    in-situ relearning before it."""
+    return {**Condition(name, size, obstacles, map, scen, planner, max_steps, trials,
+                        EVAL_SEED).to_dict(), "age_s": age_s, "relearn_walks": relearn_walks}
 
 
 def _grid(arena: int, b: Budget, parts: list[dict[str, Any]], schedule: str = "walk"

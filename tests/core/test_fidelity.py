@@ -9,16 +9,10 @@ import pytest
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.fidelity import read_snr, seed_stats, weight_error
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import (
-    Evaluation,
-    Protocol,
-    Training,
-    run_fidelity,
-    run_protocol,
-    train_and_evaluate,
-)
 from cml_edge.grid.fidelity import decision_agreement, float_twin
 from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.protocol import Protocol, run_protocol
+from cml_edge.grid.seed_run import Evaluation, Training, run_fidelity, train_and_evaluate
 from cml_edge.grid.training import TrainConfig, train
 
 CONFIG = TrainConfig(walks=6, steps=120)

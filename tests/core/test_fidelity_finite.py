@@ -18,7 +18,7 @@ from cml_edge.core.finite import (
 )
 from cml_edge.grid import training
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import SeedRun, evaluate_seed
+from cml_edge.grid.seed_run import SeedRun, evaluate_seed
 
 
 def _cml(backend="float", **options):

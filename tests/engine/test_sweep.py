@@ -8,7 +8,7 @@ import pytest
 from cml_edge.engine.sweep import Task, Workers, load_done, run_sweep, task_path
 from cml_edge.errors import InputError
 from cml_edge.experiments.common import TASK_FN, eval_spec, make_tasks
-from cml_edge.grid.evaluation import pool_records
+from cml_edge.grid.metrics import pool_records
 
 TINY = {"arena": 10, "walks": 3, "steps": 60,
         "evals": [eval_spec("e", trials=6, max_steps=30),

@@ -14,7 +14,7 @@ from cml_edge.grid.chips import (
     pool_chips,
     run_chips,
 )
-from cml_edge.grid.evaluation import Protocol, run_protocol
+from cml_edge.grid.protocol import Protocol, run_protocol
 from cml_edge.grid.training import TrainConfig
 
 SMALL = {"backend": "crossbar", "seeds": [0], "trials": 8, "arena_size": 10, "obstacles": 0,

@@ -6,16 +6,11 @@ import numpy as np
 import pytest
 
 from cml_edge.core.cml import CML, CMLConfig
-from cml_edge.grid.evaluation import (
-    Evaluation,
-    Protocol,
-    Training,
-    default_path,
-    run_protocol,
-    train_and_evaluate,
-)
 from cml_edge.grid.metrics import draw_pairs, summarize
+from cml_edge.grid.paths import default_path
 from cml_edge.grid.planning import plan
+from cml_edge.grid.protocol import Protocol, run_protocol
+from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
 from cml_edge.grid.training import TrainConfig, train
 
 

@@ -10,8 +10,8 @@ import pytest
 
 from cml_edge.core.machines import differences
 from cml_edge.errors import InputError
-from cml_edge.grid.evaluation import Protocol, run_protocol
 from cml_edge.grid.maps import shipped_path
+from cml_edge.grid.protocol import Protocol, run_protocol
 from cml_edge.grid.training import TrainConfig
 
 GOLDEN = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden" /

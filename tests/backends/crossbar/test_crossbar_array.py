@@ -22,9 +22,9 @@ from cml_edge.backends.fields import parse_setting
 from cml_edge.cli import main
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.grid.arena import GridArena
-from cml_edge.grid.evaluation import Protocol, run_protocol
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import plan
+from cml_edge.grid.protocol import Protocol, run_protocol
 from cml_edge.grid.training import TrainConfig, train
 
 SHAPES = [(256, 2), (8, 256), (256, 8), (3, 5)]

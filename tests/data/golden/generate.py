@@ -8,7 +8,7 @@ Run from that release's checkout, with its own ``cml_edge`` on ``sys.path``:
         /path/to/tests/data/golden/generate.py /path/to/old /path/to/tests/data/golden
 
 ``protocol.json``: per case, the settings as the fields of
-:class:`cml_edge.grid.evaluation.Protocol` (``protocol``) and what the old
+:class:`cml_edge.grid.protocol.Protocol` (``protocol``) and what the old
 ``run_protocol`` returned for them (``result``, without ``wall_time_s``), so that the
 test can check that ``run_protocol(Protocol.from_dict(protocol))`` returns the same JSON,
 key for key and value for value. One rule changed since: a read SNR whose reads equal the
@@ -36,8 +36,8 @@ import cml_edge  # noqa: E402
 assert Path(cml_edge.__file__).resolve().is_relative_to(SRC), cml_edge.__file__
 
 from cml_edge.core.cml import CMLConfig  # noqa: E402
-from cml_edge.grid.evaluation import run_protocol  # noqa: E402
 from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs  # noqa: E402
+from cml_edge.grid.protocol import run_protocol  # noqa: E402
 from cml_edge.grid.training import TrainConfig  # noqa: E402
 from cml_edge.scenarios import run_scenario  # noqa: E402
 
