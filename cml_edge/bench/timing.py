@@ -57,12 +57,12 @@ from cml_edge.protocol import EVAL_SEED
 
 WALKS, STEPS = 100, 900
 GOALS = {"direct": 1.3, "factored": 1.1, "device": 2.0}
-"""The issue's goals for the ratios (module docstring)."""
+"""The goals for the ratios (module docstring)."""
 
-LEARNERS: dict[str, Callable[[CML, int], Any]] = {
-    "direct": lambda cml, size: SeamLearner.of(cml, True),
-    "factored": lambda cml, size: FactoredLearner.of(cml, size),
-    "fused": lambda cml, size: FusedLearner.of(cml),
+LEARNERS: dict[str, Callable[[CML, GridArena], Any]] = {
+    "direct": lambda cml, arena: SeamLearner.of(cml, True),
+    "factored": FactoredLearner.of,
+    "fused": lambda cml, arena: FusedLearner.of(cml),
     "fused_factored": fused_factored_of,
 }
 SCORERS: dict[str, Callable[[CML], Any]] = {
@@ -104,7 +104,7 @@ def time_train(arena: GridArena, config: TrainConfig, seed: int, backend: str,
                options: dict[str, Any], learner: str) -> float:
     """CPU seconds per step of one compiled training from a fresh model of ``seed``."""
     cml = _model(arena, backend, options, seed)
-    plug = LEARNERS[learner](cml, arena.size)
+    plug = LEARNERS[learner](cml, arena)
     explorer = GridExplorer.of(arena, config, seed)
     errors = np.zeros(config.walks)
     c = cml.config
@@ -117,11 +117,12 @@ def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
               scorer: str) -> float:
     """CPU seconds per step of the paper's planner over the pairs, on the ``scorer`` path."""
     n = len(starts)
-    res = PlanResult.empty(n, 100)
+    res = PlanResult.empty(n, 100, arena)
     plug = SCORERS[scorer](cml)
     c = cml.config
+    cells = arena.cells()
     t0 = time.process_time()
-    plan_loop(plug, WTA(), arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
+    plan_loop(plug, WTA(), cells, c.obs_origin, c.obs_scale, c.utility == "normalized",
               False, starts, goals, 0, n, 100, res)
     return (time.process_time() - t0) / max(int(res.steps.sum()), 1)
 

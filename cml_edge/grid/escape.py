@@ -23,6 +23,11 @@ without reading anything. The escape is a Bug-style boundary follower:
    e(c) and is raised to min_a 1 + h(c + a) (unvisited neighbours: their predicted
    estimate), moving to an argmin within 1/2 step, ties broken by the paper's u * g.
 
+Boundaries are followed on the plane with the king moves. In three dimensions (and with
+the face moves) the wall and the hand of step 2 are not defined: a stall there takes the
+LRTA* move instead (step 3's rule) and the next step is the paper's again, so the plan
+leaves a cycle by the values LRTA* raises on the cells it revisits.
+
 On every pair the paper's planner solves it never revisits a cell, so the escape
 planner takes exactly the paper's path there: no loss by construction. Memory: the
 cells visited in this plan with one number each (at most the step budget), and a
@@ -38,7 +43,7 @@ import numpy as np
 from numba import njit
 
 from cml_edge.core.step import wta
-from cml_edge.grid.arena import MOVES, N_ACTIONS
+from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena
 
 LEAVE_MARGIN = 0.5  # leave the boundary when the estimate is this much below the hit's
 TIE_MARGIN = 0.5  # LRTA*: moves within this many steps of the best are ties
@@ -49,9 +54,9 @@ MODE = 0  # GREEDY, FOLLOW or LRTA
 WALL = 1  # the direction of the wall being followed
 HAND = 2  # 0: the wall on the left, 1: on the right
 FLIPPED = 3  # the hand was reversed once at the arena's edge
-HIT_X, HIT_Y = 4, 5  # where the boundary was hit (-1: forgotten after a flip)
-FOLLOWED = 6  # steps along the boundary since the hit
-N_SEEN = 7  # cells visited in this plan
+HIT = 4  # the cell where the boundary was hit (-1: forgotten after a flip)
+FOLLOWED = 5  # steps along the boundary since the hit
+N_SEEN = 6  # cells visited in this plan
 # the float slot of Escape.fst
 E_HIT = 0  # the estimate where the boundary was hit
 
@@ -77,29 +82,33 @@ WALL_NEXT = _wall_next()
 class Escape(NamedTuple):
     """The escape planner's memory for one plan (reset at each start)."""
 
-    seen: np.ndarray  # uint8 (N, N): the cells visited in this plan
-    h: np.ndarray  # float64 (N, N): their LRTA* values
-    vis: np.ndarray  # int64 (max_steps + 1, 2): the cells visited, in order
+    seen: np.ndarray  # uint8 (cells,): the cells visited in this plan
+    h: np.ndarray  # float64 (cells,): their LRTA* values
+    vis: np.ndarray  # int64 (max_steps + 1,): the cells visited, in order
     ist: np.ndarray  # int64[8]: the integer slots named above
     fst: np.ndarray  # float64[1]: the float slot named above
-    f: np.ndarray  # float64[N_ACTIONS]: 1 + h of each neighbour, this step
+    f: np.ndarray  # float64[n_actions]: 1 + h of each neighbour, this step
     wall_next: np.ndarray  # WALL_NEXT
+    follow: int  # 1: boundaries are followed (the plane's king moves), 0: no boundary
+    q: np.ndarray  # int64 (dims,) work vector: the wall's position
 
     @classmethod
-    def of(cls, size: int, max_steps: int) -> Escape:
-        return cls(np.zeros((size, size), np.uint8), np.zeros((size, size)),
-                   np.zeros((max_steps + 1, 2), np.int64), np.zeros(8, np.int64), np.zeros(1),
-                   np.zeros(N_ACTIONS), WALL_NEXT)
+    def of(cls, arena: GridArena, max_steps: int) -> Escape:
+        cells = arena.size ** arena.dims
+        follow = arena.dims == 2 and arena.moves == "king"
+        return cls(np.zeros(cells, np.uint8), np.zeros(cells),
+                   np.zeros(max_steps + 1, np.int64), np.zeros(8, np.int64), np.zeros(1),
+                   np.zeros(arena.n_actions), WALL_NEXT, int(follow),
+                   np.zeros(arena.dims, np.int64))
 
 
 @njit(cache=True)
 def escape_reset(es):
     """Forget the last plan: the visited cells, the mode, the wall."""
     for i in range(es.ist[N_SEEN]):
-        es.seen[es.vis[i, 0], es.vis[i, 1]] = 0
+        es.seen[es.vis[i]] = 0
     es.ist[:] = 0
-    es.ist[HIT_X] = -1
-    es.ist[HIT_Y] = -1
+    es.ist[HIT] = -1
     es.fst[:] = 0.0
 
 
@@ -107,7 +116,7 @@ def escape_reset(es):
 def lrta_choice(f, fmin, score, mask):
     """Among the available moves within TIE_MARGIN of the best f, the largest u * g."""
     best = -1
-    for a in range(N_ACTIONS):
+    for a in range(f.shape[0]):
         if mask[a] and f[a] <= fmin + TIE_MARGIN and (best < 0 or score[a] > score[best]):
             best = a
     return best
@@ -127,71 +136,69 @@ def estimate(u, K, a):
 
 
 @njit(cache=True)
-def escape_choose(es, free, x, y, u, score, norms, K, mask):
-    """One decision of the escape planner at (x, y) (the module docstring)."""
-    n = free.shape[0]
+def escape_choose(es, cells, c, p, u, score, norms, K, mask):
+    """One decision of the escape planner in cell ``c`` at ``p`` (the module docstring)."""
+    n = cells.n
+    table = cells.table
+    offsets = cells.offsets
     ist = es.ist
     seen = es.seen
     h = es.h
     f = es.f
     e = estimate(u, K, -1)
-    if not seen[x, y]:
-        seen[x, y] = 1
-        es.vis[ist[N_SEEN], 0] = x
-        es.vis[ist[N_SEEN], 1] = y
+    if not seen[c]:
+        seen[c] = 1
+        es.vis[ist[N_SEEN]] = c
         ist[N_SEEN] += 1
-        h[x, y] = e
+        h[c] = e
     fmin = math.inf
-    for a in range(N_ACTIONS):
+    for a in range(f.shape[0]):
         f[a] = math.inf
         if mask[a]:
-            cx = x + MOVES[a, 0]
-            cy = y + MOVES[a, 1]
-            if seen[cx, cy]:
-                f[a] = 1.0 + h[cx, cy]
+            nb = c + offsets[a]
+            if seen[nb]:
+                f[a] = 1.0 + h[nb]
             else:
                 f[a] = 1.0 + estimate(u, K, a)
         fmin = min(fmin, f[a])
-    h[x, y] = max(h[x, y], fmin)
+    h[c] = max(h[c], fmin)
     best = wta(score, mask)  # the paper's choice
     if ist[MODE] == FOLLOW and e < es.fst[E_HIT] - LEAVE_MARGIN:
         ist[MODE] = GREEDY  # closer than where the boundary was hit: leave it
-    if ist[MODE] == FOLLOW and x == ist[HIT_X] and y == ist[HIT_Y] and ist[FOLLOWED] > 0:
+    if ist[MODE] == FOLLOW and c == ist[HIT] and ist[FOLLOWED] > 0:
         ist[MODE] = LRTA  # all the way round without getting closer
-    if ist[MODE] == GREEDY and seen[x + MOVES[best, 0], y + MOVES[best, 1]]:
+    if ist[MODE] == GREEDY and seen[c + offsets[best]]:
         wall = -1  # the wall: the blocked direction of largest utility
-        for a in range(N_ACTIONS):
-            if not mask[a] and (wall < 0 or u[a] / norms[a] > u[wall] / norms[wall]):
+        for a in range(f.shape[0]):
+            if es.follow and not mask[a] and (wall < 0 or u[a] / norms[a] > u[wall] / norms[wall]):
                 wall = a
         if wall >= 0:
             ist[MODE] = FOLLOW
             ist[WALL] = wall
             ist[HAND] = 0
             ist[FLIPPED] = 0
-            ist[HIT_X] = x
-            ist[HIT_Y] = y
+            ist[HIT] = c
             ist[FOLLOWED] = 0
             es.fst[E_HIT] = e
         else:
             best = lrta_choice(f, fmin, score, mask)
     if ist[MODE] == FOLLOW:
-        wx = x + MOVES[ist[WALL], 0]
-        wy = y + MOVES[ist[WALL], 1]
-        if not (0 <= wx < n and 0 <= wy < n):
+        inside = True
+        for k in range(p.shape[0]):
+            es.q[k] = p[k] + table[ist[WALL], k]
+            inside = inside and 0 <= es.q[k] < n
+        if not inside:
             if ist[FLIPPED]:
                 ist[MODE] = LRTA
             else:  # the arena's edge cannot be walked round: turn back
                 ist[HAND] = 1 - ist[HAND]
                 ist[FLIPPED] = 1
-                ist[HIT_X] = -1
-                ist[HIT_Y] = -1
+                ist[HIT] = -1
     if ist[MODE] == FOLLOW:
         side = 1 if ist[HAND] == 0 else -1
         for k in range(1, N_ACTIONS):
             best = (ist[WALL] - side * k) % N_ACTIONS
-            cx = x + MOVES[best, 0]
-            cy = y + MOVES[best, 1]
-            if 0 <= cx < n and 0 <= cy < n and free[cx, cy] != 0:
+            if mask[best]:  # on the arena and free
                 break
         ist[WALL] = es.wall_next[ist[HAND], best]
         ist[FOLLOWED] += 1

@@ -33,7 +33,7 @@ from cml_edge.core.fidelity import read_snr, sample_indices, weight_error
 from cml_edge.core.learning import schedule_defers
 from cml_edge.core.step import FactoredScorer, prepare, scores
 from cml_edge.engine.timings import stage
-from cml_edge.grid.arena import MOVES, GridArena, available_moves
+from cml_edge.grid.arena import GridArena, cell_at, unpack_moves
 from cml_edge.grid.escape import Escape
 from cml_edge.grid.planning import (
     WTA,
@@ -60,29 +60,36 @@ def float_twin(seed: int, arena: GridArena, config: TrainConfig, cml_config: CML
 
 
 @njit(cache=True)
-def replay_loop(scorer, chooser, free, origin, scale, normalize, gram, goals, paths, steps,
-                agree):
+def replay_loop(scorer, chooser, cells, origin, scale, normalize, gram, goals, paths, steps,
+                agree, work):
     """For each trial, the number of the device's decisions (``paths``, ``steps``) that
-    ``scorer`` and ``chooser`` make alike (module docstring), in ``agree``."""
+    ``scorer`` and ``chooser`` make alike (module docstring), in ``agree``; ``work``: the
+    decision's work arrays (:func:`~cml_edge.grid.planning.decision_buffers`)."""
     prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
-    o, dgo, u, score, mask = decision_buffers()
+    o, dgo, u, score, mask, p, g = work
+    table = cells.table
+    dims = p.shape[0]
     for trial in range(goals.shape[0]):
         reset(chooser)
-        gx = goals[trial, 0]
-        gy = goals[trial, 1]
+        for k in range(dims):
+            g[k] = goals[trial, k]
         same = 0
         for t in range(steps[trial]):
-            x = paths[trial, t, 0]
-            y = paths[trial, t, 1]
-            decision_inputs(x, y, gx, gy, origin, scale, o, dgo)
+            for k in range(dims):
+                p[k] = paths[trial, t, k]
+            c = cell_at(p, cells.n)
+            decision_inputs(p, g, origin, scale, o, dgo)
             scores(scorer, o, dgo, u, score)
-            if available_moves(free, x, y, mask) == 0:
+            if unpack_moves(cells.masks[c], mask) == 0:
                 break
-            a = choose(chooser, free, x, y, u, score, norms, K, mask)
-            if (a >= 0 and x + MOVES[a, 0] == paths[trial, t + 1, 0]
-                    and y + MOVES[a, 1] == paths[trial, t + 1, 1]):
-                same += 1
+            a = choose(chooser, cells, c, p, u, score, norms, K, mask)
+            if a >= 0:
+                alike = True
+                for k in range(dims):
+                    alike = alike and p[k] + table[a, k] == paths[trial, t + 1, k]
+                if alike:
+                    same += 1
         agree[trial] = same
 
 
@@ -91,12 +98,13 @@ def decision_agreement(twin: CML, arena: GridArena, goals: np.ndarray, result: P
     """(decisions the twin makes alike, decisions) over the device's plan ``result``."""
     n = len(goals)
     agree = np.zeros(n, np.int64)
-    chooser = Escape.of(arena.size, max_steps) if planner == "escape" else WTA()
+    chooser = Escape.of(arena, max_steps) if planner == "escape" else WTA()
     c = twin.config
-    replay_loop(FactoredScorer.of(twin), chooser, arena.free, c.obs_origin, c.obs_scale,
+    replay_loop(FactoredScorer.of(twin), chooser, arena.cells(), c.obs_origin, c.obs_scale,
                 c.utility == "normalized", planner == "escape",
                 np.ascontiguousarray(goals, dtype=np.int64), result.paths,
-                np.ascontiguousarray(result.steps, dtype=np.int64), agree)
+                np.ascontiguousarray(result.steps, dtype=np.int64), agree,
+                decision_buffers(arena))
     return int(agree.sum()), int(result.steps.sum())
 
 

@@ -26,8 +26,8 @@ from cml_edge.grid.arena import GridArena, chebyshev
 class Pairs:
     """Evaluation (start, goal) pairs, with their Chebyshev and geodesic distances."""
 
-    starts: np.ndarray  # (n, 2)
-    goals: np.ndarray  # (n, 2)
+    starts: np.ndarray  # (n, dims)
+    goals: np.ndarray  # (n, dims)
     chebyshev: np.ndarray  # (n,)
     geodesic: np.ndarray  # (n,), -1 where the goal cannot be reached at all
 
@@ -43,8 +43,8 @@ def draw_pairs(arena: GridArena, trials: int, seed: int) -> Pairs:
     if len(free) < 2:
         raise InputError("the arena has fewer than two free cells")
     rng = np.random.default_rng(seed)
-    starts = np.zeros((trials, 2), np.int64)
-    goals = np.zeros((trials, 2), np.int64)
+    starts = np.zeros((trials, arena.dims), np.int64)
+    goals = np.zeros((trials, arena.dims), np.int64)
     for i in range(trials):
         a, b = rng.choice(len(free), size=2, replace=False)
         starts[i], goals[i] = free[a], free[b]
@@ -52,16 +52,16 @@ def draw_pairs(arena: GridArena, trials: int, seed: int) -> Pairs:
 
 
 def geodesic_distances(arena: GridArena, starts: np.ndarray, goals: np.ndarray) -> np.ndarray:
-    """BFS (8-connected) distance of each pair; -1 where not connected."""
-    if arena.n_obstacles == 0:
+    """BFS distance (fewest moves of the arena's set) of each pair; -1 where not connected."""
+    if arena.n_obstacles == 0 and arena.moves == "king":
         return chebyshev(starts, goals)
-    cache: dict[tuple[int, int], np.ndarray] = {}
+    cache: dict[tuple[int, ...], np.ndarray] = {}
     out = np.zeros(len(starts), np.int64)
     for i, (s, g) in enumerate(zip(starts, goals)):
-        key = (int(g[0]), int(g[1]))
+        key = tuple(int(v) for v in g)
         if key not in cache:
-            cache[key] = arena.geodesic(key)  # 8 moves are symmetric: BFS from the goal
-        out[i] = cache[key][s[0], s[1]]
+            cache[key] = arena.geodesic(key)  # the moves are symmetric: BFS from the goal
+        out[i] = cache[key][tuple(int(v) for v in s)]
     return out
 
 

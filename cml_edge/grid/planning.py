@@ -30,7 +30,7 @@ from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import FactoredScorer, SeamScorer, prepare, scores, wta
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import MOVES, N_ACTIONS, GridArena, available_moves, observe
+from cml_edge.grid.arena import GridArena, cell_at, observe, unpack_moves
 from cml_edge.grid.escape import WALL_NEXT, Escape, escape_choose, escape_reset
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.routing import routed
@@ -45,16 +45,27 @@ __all__ = ["MAX_STEPS", "PATHS", "PLANNERS", "WALL_NEXT", "PlanResult", "plan", 
 class PlanResult(NamedTuple):
     """Per trial: final position, actions taken, and the visited path (padded with -1)."""
 
-    final: np.ndarray  # (trials, 2)
+    final: np.ndarray  # (trials, dims)
     steps: np.ndarray  # (trials,)
-    paths: np.ndarray  # (trials, max_steps + 1, 2)
-    work: tuple  # a decision's work arrays: o, o* - o, u, the scores, the available moves
+    paths: np.ndarray  # (trials, max_steps + 1, dims)
+    work: tuple  # a decision's work arrays (decision_buffers)
 
     @classmethod
-    def empty(cls, trials: int, max_steps: int) -> PlanResult:
-        """The result arrays of ``trials`` plans (paths all -1) and the work arrays."""
-        return cls(np.zeros((trials, 2), np.int64), np.zeros(trials, np.int64),
-                   np.full((trials, max_steps + 1, 2), -1, np.int64), decision_buffers())
+    def empty(cls, trials: int, max_steps: int, arena: GridArena) -> PlanResult:
+        """The result arrays of ``trials`` plans on ``arena`` (paths all -1) and the work
+        arrays."""
+        dims = arena.dims
+        return cls(np.zeros((trials, dims), np.int64), np.zeros(trials, np.int64),
+                   np.full((trials, max_steps + 1, dims), -1, np.int64),
+                   decision_buffers(arena))
+
+
+def decision_buffers(arena: GridArena) -> tuple:
+    """The work arrays of one decision on ``arena``: o, o* - o, u, the scores, the available
+    moves, the position and the goal's."""
+    dims, n_a = arena.dims, arena.n_actions
+    return (np.zeros(dims), np.zeros(dims), np.zeros(n_a), np.zeros(n_a),
+            np.zeros(n_a, dtype=np.uint8), np.zeros(dims, np.int64), np.zeros(dims, np.int64))
 
 
 class WTA(NamedTuple):
@@ -67,9 +78,9 @@ def reset(chooser):
 
 
 @routed
-def choose(chooser, free, x, y, u, score, norms, gram, mask):
-    """The move from (x, y) given the raw utility ``u``, the scores u / norms x g, W_v's
-    Gram matrix and the available moves ``mask``."""
+def choose(chooser, cells, c, p, u, score, norms, gram, mask):
+    """The move from cell ``c`` at position ``p`` of ``cells`` given the raw utility ``u``,
+    the scores u / norms x g, W_v's Gram matrix and the available moves ``mask``."""
 
 
 @njit(cache=True, inline="always")
@@ -78,7 +89,7 @@ def wta_reset(chooser):
 
 
 @njit(cache=True, inline="always")
-def wta_choose(chooser, free, x, y, u, score, norms, gram, mask):
+def wta_choose(chooser, cells, c, p, u, score, norms, gram, mask):
     return wta(score, mask)
 
 
@@ -98,67 +109,64 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     if path == "factored" and not all(getattr(a, "supports_factored", False)
                                       for a in cml.arrays):
         raise InputError("the factored path needs float64 arrays")
-    starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1, 2)
-    goals = np.ascontiguousarray(goals, dtype=np.int64).reshape(-1, 2)
+    starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1, arena.dims)
+    goals = np.ascontiguousarray(goals, dtype=np.int64).reshape(-1, arena.dims)
     n = len(starts)
-    res = PlanResult.empty(n, max_steps)
+    res = PlanResult.empty(n, max_steps, arena)
     scorer = {"reference": ReferenceScorer, "direct": SeamScorer.of,
               "factored": FactoredScorer.of}[path](cml)
-    chooser = Escape.of(arena.size, max_steps) if planner == "escape" else WTA()
+    chooser = Escape.of(arena, max_steps) if planner == "escape" else WTA()
     loop = plan_loop.py_func if path == "reference" else plan_loop
     c = cml.config
+    cells = arena.cells()
     for t0, t1 in chunks(0, n, max_steps):
-        loop(scorer, chooser, arena.free, c.obs_origin, c.obs_scale, c.utility == "normalized",
+        loop(scorer, chooser, cells, c.obs_origin, c.obs_scale, c.utility == "normalized",
              planner == "escape", starts, goals, t0, t1, max_steps, res)
     return res
 
 
-@njit(cache=True)
-def decision_buffers():
-    """The work arrays of one decision: o, o* - o, u, the scores, the available moves."""
-    return (np.zeros(2), np.zeros(2), np.zeros(N_ACTIONS), np.zeros(N_ACTIONS),
-            np.zeros(N_ACTIONS, dtype=np.uint8))
-
-
-@njit(cache=True)
-def decision_inputs(x, y, gx, gy, origin, scale, o, dgo):
-    """o and o* - o at cell (x, y) for the goal (gx, gy): the planning inputs (o* - o is
+@njit(cache=True, inline="always")
+def decision_inputs(p, g, origin, scale, o, dgo):
+    """o and o* - o at position ``p`` for the goal at ``g``: the planning inputs (o* - o is
     read through W_q once)."""
-    observe(gx, gy, origin, scale, dgo)
-    observe(x, y, origin, scale, o)
-    for i in range(2):
+    observe(g, origin, scale, dgo)
+    observe(p, origin, scale, o)
+    for i in range(o.shape[0]):
         dgo[i] -= o[i]
 
 
 @kernel
-def plan_loop(scorer, chooser, free, origin, scale, normalize, gram, starts, goals, t0, t1,
+def plan_loop(scorer, chooser, cells, origin, scale, normalize, gram, starts, goals, t0, t1,
               max_steps, res):
-    """Plan (start, goal) pairs ``t0 .. t1 - 1`` (the module docstring), for any scorer and
-    chooser. A :func:`~cml_edge.jit.kernel.kernel`: no decision pays reference counts."""
+    """Plan (start, goal) pairs ``t0 .. t1 - 1`` (the module docstring) on ``cells``
+    (:meth:`~cml_edge.grid.arena.GridArena.cells`), for any scorer and chooser. A
+    :func:`~cml_edge.jit.kernel.kernel`: no decision pays reference counts."""
     if t0 == 0:
         prepare(scorer, normalize, gram)  # W_v's columns, read once per batch
     norms, K = scorer.norms, scorer.gram
-    o, dgo, u, score, mask = res.work
+    o, dgo, u, score, mask, p, g = res.work
+    table = cells.table
+    dims = p.shape[0]
     for trial in range(t0, t1):
         reset(chooser)
-        x = starts[trial, 0]
-        y = starts[trial, 1]
-        gx = goals[trial, 0]
-        gy = goals[trial, 1]
-        res.paths[trial, 0, 0] = x
-        res.paths[trial, 0, 1] = y
+        for k in range(dims):
+            p[k] = starts[trial, k]
+            g[k] = goals[trial, k]
+            res.paths[trial, 0, k] = p[k]
+        c = cell_at(p, cells.n)
+        goal = cell_at(g, cells.n)
         taken = 0
-        while taken < max_steps and not (x == gx and y == gy):
-            decision_inputs(x, y, gx, gy, origin, scale, o, dgo)
+        while taken < max_steps and c != goal:
+            decision_inputs(p, g, origin, scale, o, dgo)
             scores(scorer, o, dgo, u, score)
-            if available_moves(free, x, y, mask) == 0:
+            if unpack_moves(cells.masks[c], mask) == 0:
                 break
-            a = choose(chooser, free, x, y, u, score, norms, K, mask)
-            x += MOVES[a, 0]
-            y += MOVES[a, 1]
+            a = choose(chooser, cells, c, p, u, score, norms, K, mask)
+            c += cells.offsets[a]
             taken += 1
-            res.paths[trial, taken, 0] = x
-            res.paths[trial, taken, 1] = y
-        res.final[trial, 0] = x
-        res.final[trial, 1] = y
+            for k in range(dims):
+                p[k] += table[a, k]
+                res.paths[trial, taken, k] = p[k]
+        for k in range(dims):
+            res.final[trial, k] = p[k]
         res.steps[trial] = taken

@@ -45,7 +45,7 @@ from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defer
 from cml_edge.core.step import SeamLearner, begin_walk, copy_matrix, end_walk, learn
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import MOVES, GridArena, observe
+from cml_edge.grid.arena import GridArena, cell_at, observe, position
 from cml_edge.grid.exploration import (
     N_EXPL_FRACTION,
     GridExplorer,
@@ -101,7 +101,7 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     if path == "factored" and not (defer and all(
             getattr(a, "supports_factored", False) for a in cml.arrays)):
         raise InputError("the factored path needs float64 arrays and the per-walk schedule")
-    learner = make_learner(cml, path, defer, arena.size)
+    learner = make_learner(cml, path, defer, arena)
     explorer = GridExplorer.of(arena, config, seed)
     loop = train_loop.py_func if path == "reference" else train_loop
     c = cml.config
@@ -118,12 +118,12 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     return errors[first_walk:]
 
 
-def make_learner(cml: CML, path: str, defer: bool, size: int):
+def make_learner(cml: CML, path: str, defer: bool, arena: GridArena):
     """The learner of ``path``: reference, seam (direct) or factored (float64)."""
     if path == "reference":
         return ReferenceLearner(cml, defer)
     if path == "factored":
-        return FactoredLearner.of(cml, size)
+        return FactoredLearner.of(cml, arena)
     return SeamLearner.of(cml, defer)
 
 
@@ -131,28 +131,35 @@ def make_learner(cml: CML, path: str, defer: bool, size: int):
 def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
     """Walks w0..w1-1: the training of the module docstring, for any learner. A
     :func:`~cml_edge.jit.kernel.kernel`: no step pays reference counts."""
-    free, masks, visited, n_visited, keys = (explorer.free, explorer.masks, explorer.visited,
-                                             explorer.n_visited, explorer.keys)
+    cells, visited, n_visited, keys = (explorer.cells, explorer.visited, explorer.n_visited,
+                                       explorer.keys)
     novelty, best = explorer.novelty, explorer.best
-    o_t = explorer.obs[0]  # a cell's observation (x, y)
+    table = cells.table
+    o_t = explorer.obs[0]  # a cell's observation
     o_1 = explorer.obs[1]
+    p = explorer.pos[0]  # its position
+    p_1 = explorer.pos[1]
+    q = explorer.pos[2]
+    off = explorer.pos[3]
     for w in range(w0, w1):
-        x, y = nth_free_cell(free, randint(keys[0], w, explorer.n_free))
-        visit(visited, n_visited, x, y)
+        c = nth_free_cell(cells.free, randint(keys[0], w, explorer.n_free))
+        position(c, cells.n, p)
+        visit(visited, n_visited, c)
         t_expl = threshold(w, explorer.n_expl)
         begin_walk(learner)
         total = 0.0
         for t in range(steps):
-            a = choose_action(explorer.code, masks, visited, n_visited[0], x, y, t_expl, keys[1],
-                              w * steps + t, novelty, best)
-            nx = x + MOVES[a, 0]
-            ny = y + MOVES[a, 1]
-            observe(x, y, origin, scale, o_t)
-            observe(nx, ny, origin, scale, o_1)
+            a = choose_action(explorer.code, cells, visited, n_visited[0], c, p, t_expl,
+                              keys[1], w * steps + t, novelty, best, q, off)
+            for k in range(p.shape[0]):
+                p_1[k] = p[k] + table[a, k]
+            observe(p, origin, scale, o_t)
+            observe(p_1, origin, scale, o_1)
             total += learn(learner, o_t, o_1, a)
-            x = nx
-            y = ny
-            visit(visited, n_visited, x, y)
+            c += cells.offsets[a]
+            for k in range(p.shape[0]):
+                p[k] = p_1[k]
+            visit(visited, n_visited, c)
         total += end_walk(learner)
         errors[w] = total / steps
 
@@ -164,13 +171,15 @@ class FactoredLearner(NamedTuple):
     affordance term of A, sum_t g(o_t) o_t^T, is summed per visited cell
     (n_cell g(o_cell) o_cell^T, one sigmoid per cell and walk instead of one per step), and
     the training error ||e_t|| = ||W_q delta_a - W_v a|| depends only on the action, so it
-    is formed once per action and walk (delta_a = MOVES[a] / obs_scale)."""
+    is formed once per action and walk (delta_a = the move's displacement / obs_scale)."""
 
     Wq: np.ndarray
     Wk: np.ndarray
     Wv: np.ndarray
     lr: np.ndarray  # float64[3]: lr_q, lr_k, lr_v
     frame: np.ndarray  # float64[2]: obs_origin, obs_scale
+    table: np.ndarray  # int64 (n_a, n_i): each action's displacement
+    n: int  # the arena's side
     M: np.ndarray  # (n_a, n_i) W_k W_q, per walk
     err_a: np.ndarray  # (n_a) ||W_q delta_a - W_v a||, per walk
     E: np.ndarray  # (n_a, n_i) sum a_t o_t^T
@@ -178,21 +187,24 @@ class FactoredLearner(NamedTuple):
     cnt: np.ndarray  # (n_a) n
     C: np.ndarray  # (n_i, n_i)
     D: np.ndarray  # (n_a, n_i)
-    visits: np.ndarray  # (size, size) int64: steps from each cell in this walk
-    cells: np.ndarray  # (size * size, 2) int64: the cells visited, in order
+    visits: np.ndarray  # (cells,) int64: steps from each cell in this walk
+    cells: np.ndarray  # (cells,) int64: the cells visited, in order
     n_cells: np.ndarray  # int64[1]
     o: np.ndarray  # (n_i) work vector
+    p: np.ndarray  # (n_i) int64 work vector: a cell's position
 
     @classmethod
-    def of(cls, cml: CML, size: int) -> FactoredLearner:
+    def of(cls, cml: CML, arena: GridArena) -> FactoredLearner:
         c = cml.config
         n_a, n_i = c.n_a, c.n_i
+        cells = arena.size ** arena.dims
         return cls(cml.W_q.state.W, cml.W_k.state.W, cml.W_v.state.W,
                    np.array([c.lr_q, c.lr_k, c.lr_v]), np.array([c.obs_origin, c.obs_scale]),
-                   np.zeros((n_a, n_i)), np.zeros(n_a), np.zeros((n_a, n_i)),
-                   np.zeros((n_i, n_a)), np.zeros(n_a), np.zeros((n_i, n_i)),
-                   np.zeros((n_a, n_i)), np.zeros((size, size), np.int64),
-                   np.zeros((size * size, 2), np.int64), np.zeros(1, np.int64), np.zeros(n_i))
+                   arena.move_table, arena.size, np.zeros((n_a, n_i)), np.zeros(n_a),
+                   np.zeros((n_a, n_i)), np.zeros((n_i, n_a)), np.zeros(n_a),
+                   np.zeros((n_i, n_i)), np.zeros((n_a, n_i)), np.zeros(cells, np.int64),
+                   np.zeros(cells, np.int64), np.zeros(1, np.int64), np.zeros(n_i),
+                   np.zeros(n_i, np.int64))
 
 
 @allocates  # (matrix products)
@@ -204,7 +216,10 @@ def factored_begin_walk(fl):
     for a in range(fl.err_a.shape[0]):
         sq = 0.0
         for r in range(Wq.shape[0]):
-            e = Wq[r, 0] * (MOVES[a, 0] / scale) + Wq[r, 1] * (MOVES[a, 1] / scale) - Wv[r, a]
+            e = 0.0
+            for k in range(Wq.shape[1]):
+                e += Wq[r, k] * (fl.table[a, k] / scale)
+            e -= Wv[r, a]
             sq += e * e
         fl.err_a[a] = math.sqrt(sq)
     fl.E[:] = 0.0
@@ -227,13 +242,13 @@ def factored_learn(fl, o_t, o_1, a):
             fl.C[i, j] += di * o_1[j]
     fl.cnt[a] += 1.0
     # the cell of o_t (the frame maps cells to observations one to one)
-    x = int(round(o_t[0] * fl.frame[1] + fl.frame[0]))
-    y = int(round(o_t[1] * fl.frame[1] + fl.frame[0]))
-    if fl.visits[x, y] == 0:
-        fl.cells[fl.n_cells[0], 0] = x
-        fl.cells[fl.n_cells[0], 1] = y
+    for i in range(n_i):
+        fl.p[i] = int(round(o_t[i] * fl.frame[1] + fl.frame[0]))
+    c = cell_at(fl.p, fl.n)
+    if fl.visits[c] == 0:
+        fl.cells[fl.n_cells[0]] = c
         fl.n_cells[0] += 1
-    fl.visits[x, y] += 1
+    fl.visits[c] += 1
     return 0.0
 
 
@@ -245,12 +260,12 @@ def factored_end_walk(fl):
     M = fl.M
     o = fl.o
     A = fl.E.copy()  # A = sum (a_t - g_t) o_t^T
-    for c in range(fl.n_cells[0]):
-        cx = fl.cells[c, 0]
-        cy = fl.cells[c, 1]
-        m = fl.visits[cx, cy]
-        fl.visits[cx, cy] = 0
-        observe(cx, cy, fl.frame[0], fl.frame[1], o)
+    for i in range(fl.n_cells[0]):
+        c = fl.cells[i]
+        m = fl.visits[c]
+        fl.visits[c] = 0
+        position(c, fl.n, fl.p)
+        observe(fl.p, fl.frame[0], fl.frame[1], o)
         for r in range(M.shape[0]):
             z = 0.0
             for j in range(o.shape[0]):

@@ -25,7 +25,7 @@ from cml_edge.grid.training import TrainConfig, train, train_loop
 
 def _trained(arena, learner, config, seed=3):
     cml = CML.create(CMLConfig.for_arena(arena.size), "float", seed)
-    plug = LEARNERS[learner](cml, arena.size)
+    plug = LEARNERS[learner](cml, arena)
     errors = np.zeros(config.walks)
     c = cml.config
     train_loop(plug, GridExplorer.of(arena, config, seed), c.obs_origin, c.obs_scale, 0,
@@ -65,9 +65,9 @@ def test_fused_scorer_plans_as_the_direct_path(utility):
     pairs = draw_pairs(arena, 20, 5)
     ref = plan(cml, arena, pairs.starts, pairs.goals)
     n = len(pairs.starts)
-    res = PlanResult.empty(n, 100)
+    res = PlanResult.empty(n, 100, arena)
     c = cml.config
-    plan_loop(SCORERS["fused"](cml), WTA(), arena.free, c.obs_origin, c.obs_scale,
+    plan_loop(SCORERS["fused"](cml), WTA(), arena.cells(), c.obs_origin, c.obs_scale,
               utility == "normalized", False, np.ascontiguousarray(pairs.starts, np.int64),
               np.ascontiguousarray(pairs.goals, np.int64), 0, n, 100, res)
     for field in ("final", "steps", "paths"):

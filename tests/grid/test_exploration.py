@@ -7,32 +7,17 @@ from cml_edge.grid.arena import GridArena
 from cml_edge.grid.exploration import knn_novelty, random_action, threshold
 
 
-class VisitedSet:
-    """The reference the compiled index is held to: distinct cells, scipy's cKDTree."""
-
-    def __init__(self) -> None:
-        self.cells: list[tuple[int, int]] = []
-        self._seen: set[tuple[int, int]] = set()
-        self._tree: cKDTree | None = None
-
-    def add(self, x: int, y: int) -> None:
-        if (x, y) not in self._seen:
-            self._seen.add((x, y))
-            self.cells.append((x, y))
-            self._tree = None
-
-    def novelty(self, x: int, y: int, k: int = 5) -> float:
-        """Eq. 4: sum of distances to the k nearest visited cells, summed in ascending order."""
-        m = min(k, len(self.cells))
-        if m == 0:
-            return 0.0
-        if self._tree is None:
-            self._tree = cKDTree(np.array(self.cells, dtype=np.float64))
-        dist, _ = self._tree.query([float(x), float(y)], k=m)
-        total = 0.0
-        for d in np.atleast_1d(dist):
-            total += float(d)
-        return total
+def novelty_reference(cells: np.ndarray, q, k: int = 5) -> float:
+    """Eq. 4 by scipy's cKDTree: the sum of distances from q to the k nearest of the
+    distinct visited ``cells`` (any number of axes), summed in ascending order."""
+    m = min(k, len(cells))
+    if m == 0:
+        return 0.0
+    dist, _ = cKDTree(np.asarray(cells, dtype=np.float64)).query(np.asarray(q, float), k=m)
+    total = 0.0
+    for d in np.atleast_1d(dist):
+        total += float(d)
+    return total
 
 
 def test_threshold_is_eq_5():
@@ -43,17 +28,19 @@ def test_threshold_is_eq_5():
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(3, 25), st.floats(0.0, 0.5), st.integers(0, 2**31 - 1))
-def test_grid_knn_equals_ckdtree(n, density, seed):
+@given(st.integers(3, 25), st.floats(0.0, 0.5), st.integers(0, 2**31 - 1), st.sampled_from([2, 3]))
+def test_grid_knn_equals_ckdtree(n, density, seed, dims):
+    """The compiled shells, on the plane and in space, find what the k-d tree finds."""
+    n = n if dims == 2 else min(n, 9)
     rng = np.random.default_rng(seed)
-    visited = (rng.random((n, n)) < density).astype(np.uint8)
-    ref = VisitedSet()
-    for x, y in np.argwhere(visited):
-        ref.add(int(x), int(y))
+    visited = (rng.random((n,) * dims) < density).astype(np.uint8)
+    cells = np.argwhere(visited)
     best = np.zeros(5)
+    off = np.zeros(dims, np.int64)
     for _ in range(5):
-        x, y = rng.integers(-1, n + 1, 2)
-        assert knn_novelty(visited, int(visited.sum()), x, y, 5, best) == ref.novelty(x, y)
+        q = rng.integers(-1, n + 1, dims)
+        got = knn_novelty(visited.ravel(), len(cells), q.astype(np.int64), n, 5, best, off)
+        assert got == novelty_reference(cells, q)
 
 
 def test_random_action_is_uniform_over_available():
@@ -76,7 +63,7 @@ def test_mixed_exploration_covers_more_of_the_arena_early():
         config = TrainConfig(walks=100, steps=900, explore=explore)
         explorer = GridExplorer.of(arena, config, 0)
         c = cml.config
-        train_loop(FactoredLearner.of(cml, 30), explorer, c.obs_origin, c.obs_scale, 0, 1,
+        train_loop(FactoredLearner.of(cml, arena), explorer, c.obs_origin, c.obs_scale, 0, 1,
                    config.steps, np.zeros(100))
         coverage[explore] = explorer.n_visited[0]
     assert coverage["mixed"] > 1.5 * coverage["random"]
