@@ -20,6 +20,7 @@ __version__ = "0.1.0"
 GYMNASIUM_ENVS = {
     "cml_edge/GridNav-v0": ("cml_edge.grid.env:GridNavEnv", {}),
     "cml_edge/GridNavGoal-v0": ("cml_edge.grid.env:GridNavEnv", {"goal_conditioned": True}),
+    "cml_edge/GridNav3D-v0": ("cml_edge.grid.env:GridNavEnv", {"dims": 3}),
     "cml_edge/RobotNav-v0": ("cml_edge.robot.env:RobotNavEnv", {}),
 }
 """The Gymnasium environment ids of the grid (:mod:`cml_edge.grid.env`) and the robot

@@ -76,11 +76,10 @@ from cml_edge.baselines.settings import (  # noqa: F401 - all re-exported
 )
 from cml_edge.core.finite import dumps
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena
+from cml_edge.grid.arena import GridArena, chebyshev
 from cml_edge.grid.metrics import (
     CONVERGENCE_TOL,
     Pairs,
-    chebyshev,
     convergence_index,
     draw_pairs,
     geodesic_distances,

@@ -29,6 +29,7 @@ from cml_edge.cli.args import (
 )
 from cml_edge.cli.compiling import protocol_units, warm_up
 from cml_edge.cli.output import (
+    arena_text,
     beyond_rows,
     device_label,
     labelled,
@@ -38,7 +39,7 @@ from cml_edge.cli.output import (
     show_evaluate,
     show_protocol,
 )
-from cml_edge.core.cml import CML, UTILITIES, CMLConfig
+from cml_edge.core.cml import CML, UTILITIES
 from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import dumps
 from cml_edge.core.learning import SCHEDULES
@@ -46,14 +47,14 @@ from cml_edge.core.model_file import load_model, save_model
 from cml_edge.engine import timings
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena
+from cml_edge.grid.arena import DIMS, MOVE_SETS, GridArena, fewest_moves, move_table
 from cml_edge.grid.exploration import EXPLORATIONS
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import Pairs, draw_pairs, geodesic_distances, summarize
 from cml_edge.grid.paths import default_path
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.protocol import Protocol, run_protocol
-from cml_edge.grid.seed_run import Evaluation
+from cml_edge.grid.seed_run import Evaluation, cml_config_for
 from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.io.files import atomic_write, writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED
@@ -63,6 +64,11 @@ def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
     """The training options; ``counted``: the command reports the arrays' counters, so its
     default compute path is direct (:func:`cml_edge.grid.paths.default_path`)."""
     p.add_argument("--arena", type=arena_size, default=30, help="arena side (default 30)")
+    p.add_argument("--dims", type=int, choices=DIMS, default=2,
+                   help="2: the paper's N x N plane; 3: an N x N x N volume (default 2)")
+    p.add_argument("--moves", choices=MOVE_SETS, default="king",
+                   help="king: every neighbour (8 on the plane, 26 in space); face: the axis "
+                        "neighbours only (4, 6) (default king)")
     p.add_argument("--walks", type=positive_int, default=100, help="exploration walks (100)")
     p.add_argument("--steps", type=positive_int, default=900, help="steps per walk (900)")
     p.add_argument("--explore", choices=EXPLORATIONS, default="random",
@@ -107,9 +113,10 @@ def _add_map(p: argparse.ArgumentParser, scen: bool = True) -> None:
                             "drawn pairs (needs --map)")
 
 
-def _load_map_args(args: argparse.Namespace):
-    """(GridMap, Pairs or None) of --map / --scen, or (None, None); checks the options."""
-    from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs
+def _load_map_args(args: argparse.Namespace, dims: int = 2, moves: str = "king"):
+    """(the map's arena, Pairs or None) of --map / --scen, or (None, None); checks the
+    options. A MovingAI ``.map`` on the plane, a voxel map (``.3dmap``) in space."""
+    from cml_edge.grid.condition import Condition
 
     if getattr(args, "scen", None) and not args.map:
         raise InputError("--scen needs --map")
@@ -118,13 +125,11 @@ def _load_map_args(args: argparse.Namespace):
     if getattr(args, "obstacles", 0):
         raise InputError(f"--obstacles {args.obstacles} cannot be combined with --map (the map "
                          f"is the evaluation arena)")
-    grid = load_map(resolve_map(args.map))
-    pairs = None
-    if getattr(args, "scen", None):
-        pairs = scenario_pairs(grid, load_scen(args.scen), args.scen)
-    limits.recheck(args, arena=grid.side, **({} if pairs is None else
-                                             {"trials": len(pairs.goals)}))
-    return grid, pairs
+    scen = getattr(args, "scen", None)
+    ev = Condition(map=args.map, scen=scen).evaluation(2, dims, moves)
+    limits.recheck(args, arena=ev.arena.size, dims=dims,
+                   **({} if scen is None else {"trials": len(ev.pairs.goals)}))
+    return ev.arena, (ev.pairs if scen else None)
 
 
 def _budget(args: argparse.Namespace, side: int, on_map: bool) -> int:
@@ -162,8 +167,10 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser("navigate", help="plan one path with a saved model, optionally plot it")
     p.add_argument("model", help="model file (.npz)")
-    p.add_argument("--start", type=coordinate, nargs=2, metavar=("X", "Y"), required=True)
-    p.add_argument("--goal", type=coordinate, nargs=2, metavar=("X", "Y"), required=True)
+    p.add_argument("--start", type=coordinate, nargs="+", metavar="C", required=True,
+                   help="the start cell: X Y (X Y Z for a 3-D model)")
+    p.add_argument("--goal", type=coordinate, nargs="+", metavar="C", required=True,
+                   help="the goal cell: X Y (X Y Z for a 3-D model)")
     p.add_argument("--arena", type=arena_size, default=None,
                    help="arena side (default: the training arena)")
     p.add_argument("--obstacles", type=nonneg_int, default=0, help="point obstacles (0)")
@@ -210,17 +217,18 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     writable_file(args.out, "--out")
     options = backend_options(args)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
-    cml = CML.create(CMLConfig.for_arena(args.arena, utility=args.utility), args.backend,
-                     args.seed, **options)
+    arena = GridArena.empty(args.arena, args.dims, args.moves)
+    cml = CML.create(cml_config_for(arena, utility=args.utility), args.backend, args.seed,
+                     **options)
     path = args.path or default_path(cml, args.schedule)
-    arena = GridArena.empty(args.arena)
     t0 = time.perf_counter()
     bar = Progress("train")
     bar(0, config.walks)
     with stage("train"):
         errors = train(cml, arena, config, args.seed, path=path,
                        on_epoch=lambda done: bar(done, config.walks))
-    record = {"arena": args.arena, "walks": args.walks, "steps": args.steps,
+    record = {"arena": args.arena, "dims": args.dims, "moves": args.moves,
+              "walks": args.walks, "steps": args.steps,
               "explore": args.explore, "schedule": args.schedule, "seed": args.seed,
               "path": path, "backend_options": options, "train_error": errors.tolist(),
               "wall_time_s": time.perf_counter() - t0, "cml_edge_version": __version__,
@@ -230,31 +238,54 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
         "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
         "path": path, "wall_time_s": record["wall_time_s"],
-        "final_train_error": float(errors[-1]),
+        "final_train_error": float(errors[-1]), **_in_space(args.dims, args.moves),
         **beyond_reference(args.backend, options, args.schedule)}
     if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
         out["counters"] = cml.counters()
     return out
 
 
-def _eval_arena(args: argparse.Namespace, record: dict[str, Any]) -> GridArena:
+def _in_space(dims: int, moves: str) -> dict[str, Any]:
+    """The keys a result adds off the plane's king moves (none on the plane: its results
+    read as before)."""
+    return {"dims": dims, "moves": moves} if (dims, moves) != (2, "king") else {}
+
+
+def _model_world(cml: CML, record: dict[str, Any], model: str) -> tuple[int, str]:
+    """(dims, moves) a model was trained with (a file without them: the plane's king
+    moves), checked against its CML's inputs and actions."""
+    dims, moves = int(record.get("dims", 2)), record.get("moves", "king")
+    if dims not in DIMS or moves not in MOVE_SETS:
+        raise InputError(f"{model!r} records dims {dims!r} and moves {moves!r} (allowed: "
+                         f"dims 2 or 3, moves {' or '.join(MOVE_SETS)})")
+    n_a = len(move_table(dims, moves))
+    if (cml.config.n_i, cml.config.n_a) != (dims, n_a):
+        raise InputError(f"{model!r} has {cml.config.n_i} inputs and {cml.config.n_a} "
+                         f"actions; a grid model of {dims} dimensions with {moves} moves has "
+                         f"{dims} and {n_a}")
+    return dims, moves
+
+
+def _eval_arena(args: argparse.Namespace, record: dict[str, Any], dims: int,
+                moves: str) -> GridArena:
     size = args.arena if args.arena is not None else int(record.get("arena", 30))
     if args.obstacles:
-        return GridArena.with_obstacles(size, args.obstacles, args.seed)
-    return GridArena.empty(size)
+        return GridArena.with_obstacles(size, args.obstacles, args.seed, dims, moves)
+    return GridArena.empty(size, dims, moves)
 
 
 def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
-    grid, scen_pairs = _load_map_args(args)
-    if grid is not None and args.arena is not None:
+    if args.map and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
     with stage("load"):
         cml, record = load_model(args.model)
-    arena = grid.arena() if grid is not None else _eval_arena(args, record)
+    dims, moves = _model_world(cml, record, args.model)
+    grid, scen_pairs = _load_map_args(args, dims, moves)
+    arena = grid if grid is not None else _eval_arena(args, record, dims, moves)
     twin = {k: record[k] for k in ("walks", "steps") if k in record}  # its training
-    limits.recheck(args, arena=arena.size, trials=len(scen_pairs.goals) if scen_pairs
-                   else args.trials, **twin)
+    limits.recheck(args, arena=arena.size, dims=dims, trials=len(scen_pairs.goals)
+                   if scen_pairs else args.trials, **twin)
     pairs = scen_pairs or draw_pairs(arena, args.trials, args.seed)
     path = args.path or default_path(cml)
     budget = _budget(args, arena.size, grid is not None)
@@ -264,7 +295,8 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     result = summarize(res.final, res.steps, pairs)
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
-           "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget}
+           "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget,
+           **_in_space(dims, moves)}
     if grid is not None:
         out.update({"map": args.map, "scen": args.scen})
     out.update(_model_fidelity(cml, record, arena, pairs, res, args.planner, budget))
@@ -283,28 +315,36 @@ def _model_fidelity(cml: CML, record: dict[str, Any], arena: GridArena, pairs: P
     config = TrainConfig(int(record["walks"]), int(record["steps"]), record["explore"],
                          record["schedule"])
     seed = int(record["seed"])
-    twin = float_twin(seed, GridArena.empty(int(record["arena"])), config, cml.config)
+    train_arena = GridArena.empty(int(record["arena"]), arena.dims, arena.moves)
+    twin = float_twin(seed, train_arena, config, cml.config)
     fid = seed_fidelity(seed, cml, twin, arena, pairs.goals, res, planner, budget)
     return {**pool_seeds([fid]), "fidelity_twin": TWIN,
             "decisions": fid["decisions"], "decisions_agreed": fid["decisions_agreed"]}
 
 
 def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
-    grid, _ = _load_map_args(args)
     if args.plot:
         writable_file(args.plot, "--plot")
-    if grid is not None and args.arena is not None:
+    if args.map and args.arena is not None:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
     cml, record = load_model(args.model)
-    arena = grid.arena() if grid is not None else _eval_arena(args, record)
-    limits.recheck(args, arena=arena.size)
+    dims, moves = _model_world(cml, record, args.model)
+    grid, _ = _load_map_args(args, dims, moves)
+    arena = grid if grid is not None else _eval_arena(args, record, dims, moves)
+    limits.recheck(args, arena=arena.size, dims=dims)
+    axes = "X Y Z"[: 2 * dims - 1]
     for name, pos in (("start", args.start), ("goal", args.goal)):
+        text = " ".join(map(str, pos))
+        if len(pos) != dims:
+            raise InputError(f"--{name} {text} is not a cell of the {dims}-D arena (allowed: "
+                             f"{dims} coordinates, {axes})")
         if not arena.contains(pos):
-            raise InputError(f"--{name} {pos[0]} {pos[1]} is off the {arena.size} x "
-                             f"{arena.size} arena (allowed: 0..{arena.size - 1})")
+            raise InputError(f"--{name} {text} is off the "
+                             f"{' x '.join([str(arena.size)] * dims)} arena (allowed: "
+                             f"0..{arena.size - 1})")
         if not arena.is_free(pos):
-            raise InputError(f"--{name} {pos[0]} {pos[1]} is on an obstacle")
+            raise InputError(f"--{name} {text} is on an obstacle")
     starts, goals = np.array([args.start]), np.array([args.goal])
     path = default_path(cml)
     say_estimate()
@@ -312,14 +352,15 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
                path=path, planner=args.planner)
     steps = int(res.steps[0])
     trajectory = res.paths[0, : steps + 1]
-    pairs = Pairs(starts, goals, np.abs(starts - goals).max(1),
+    pairs = Pairs(starts, goals, fewest_moves(starts, goals, moves),
                   geodesic_distances(arena, starts, goals))
     final = res.final[0]
     out = {"start": list(args.start), "goal": list(args.goal), "final": final.tolist(),
            "steps": steps, "reached": bool((final == goals[0]).all()),
            "e_pos": float(np.linalg.norm(final - goals[0])),
            "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
-           "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist()}
+           "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist(),
+           **_in_space(dims, moves)}
     out["path"] = out["trajectory"]  # the older name of the trajectory
     if args.plot:
         from cml_edge.grid.plots import plot_navigation
@@ -344,13 +385,14 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
 
         check_scheduler(args.scheduler)
     options = backend_options(args)
-    grid, _ = _load_map_args(args)  # checks --map and --scen; the protocol loads them
+    # checks --map and --scen; the protocol loads them
+    grid, _ = _load_map_args(args, args.dims, args.moves)
     size = args.arena
     if grid is not None:
-        if args.arena not in (30, grid.side):  # 30: the default, replaced by the map's side
-            raise InputError(f"--arena {args.arena} conflicts with --map ({grid.side} x "
-                             f"{grid.side}); leave --arena out")
-        size = grid.side
+        if args.arena not in (30, grid.size):  # 30: the default, replaced by the map's side
+            raise InputError(f"--arena {args.arena} conflicts with --map "
+                             f"({' x '.join([str(grid.size)] * grid.dims)}); leave --arena out")
+        size = grid.size
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
     on_map = grid is not None
     protocol = Protocol(
@@ -358,7 +400,8 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
         obstacles=args.obstacles, train=config, utility=args.utility,
         eval_seed=args.eval_seed, path=args.path, idle_s=args.drift_time,
         planner=args.planner, max_steps=_budget(args, size, on_map), backend_options=options,
-        map=args.map if on_map else None, scen=args.scen if on_map else None)
+        map=args.map if on_map else None, scen=args.scen if on_map else None,
+        dims=args.dims, moves=args.moves)
     chips = chips_options(args)
     if chips is not None:
         if on_map:
@@ -399,7 +442,7 @@ def _emulate_chips(args: argparse.Namespace, protocol: Protocol,
 # what a person reads (--json: the result) ----------------------------------------
 def show_train(r: dict[str, Any]) -> None:
     """``train``: what was trained, where it was saved, its final training error."""
-    print(f"train: seed {r['seed']}, {r['arena']} x {r['arena']} arena, {r['walks']} walks x "
+    print(f"train: seed {r['seed']}, {arena_text(r['arena'], r)}, {r['walks']} walks x "
           f"{r['steps']} steps ({r['explore']} exploration, {r['schedule']} schedule)")
     print("\n".join(labelled([
         ("device", device_label(r["backend"], r.get("backend_options"))), *beyond_rows(r),
@@ -409,7 +452,7 @@ def show_train(r: dict[str, Any]) -> None:
 
 
 def _cell(p: Sequence[int]) -> str:
-    return f"({p[0]}, {p[1]})"
+    return f"({', '.join(str(v) for v in p)})"
 
 
 def show_navigate(r: dict[str, Any]) -> None:
@@ -420,10 +463,12 @@ def show_navigate(r: dict[str, Any]) -> None:
           f"{r['compute_path']} path")
     steps = plural(r["steps"], "step")
     if r["reached"]:
-        outcome = f"yes, in {steps} (Chebyshev distance {r['chebyshev']}, overhead " \
+        metric = "Chebyshev" if r.get("moves", "king") == "king" else "Manhattan"
+        outcome = f"yes, in {steps} ({metric} distance {r['chebyshev']}, overhead " \
                   f"{num(r['steps'] / max(r['chebyshev'], 1))})"
     else:
         outcome = f"no: stopped at {_cell(r['final'])} after {steps}, e_pos {num(r['e_pos'])}"
-    path = textwrap.wrap(" ".join(f"{x},{y}" for x, y in r["trajectory"]), 76)
+    path = textwrap.wrap(" ".join(",".join(map(str, p)) for p in r["trajectory"]), 76)
     print("\n".join(labelled([("reached", outcome), ("plot", r.get("plot"))])))
-    print("  trajectory (x,y):\n" + "\n".join("    " + line for line in path))
+    axes = "x,y,z" if len(r["start"]) == 3 else "x,y"
+    print(f"  trajectory ({axes}):\n" + "\n".join("    " + line for line in path))

@@ -122,8 +122,8 @@ def _get(args: Any, name: str, default: float = 1) -> float:
 def estimate(args: Any) -> Estimate:
     """The estimate of the command ``args`` (an argparse namespace) from its sizes: any
     of ``seeds``, ``chips``, ``walks``, ``steps``, ``trials``, ``max_steps``, ``arena``
-    and ``devices`` it has (a missing size counts 1, or its default; a scenario or sweep
-    trains the paper's 100 walks x 900 steps a model)."""
+    (side^``dims`` cells) and ``devices`` it has (a missing size counts 1, or its default;
+    a scenario or sweep trains the paper's 100 walks x 900 steps a model)."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
     if getattr(args, "robot_command", None) == "navigate":  # goals one after another
         args = SimpleNamespace(**{**vars(args), "trials": _get(args, "goals")})
@@ -148,14 +148,14 @@ def estimate(args: Any) -> Estimate:
         walks, steps = DEFAULT_WALKS, DEFAULT_STEPS
     else:
         walks, steps = 1.0, _get(args, "steps", 0)
-    side = _get(args, "arena", 0)
+    side, dims = _get(args, "arena", 0), _get(args, "dims", 2)
     devices = _get(args, "devices", 0)
     workers = max(1.0, min(_get(args, "workers", cores), cores))
     terms = {
         f"--seeds {seeds:g}" + (f" x --chips {chips:g}" if chips > 1 else ""):
             models * TASK_BYTES,
         plan_label: plans * PATH_BYTES,
-        f"--arena {side:g}": side * side * CELL_BYTES,
+        f"--arena {side:g}" + (" --dims 3" if dims == 3 else ""): side ** dims * CELL_BYTES,
         f"--devices {devices:g}": devices * DEVICE_BYTES,
     }
     seconds = (models * repeat * (walks * steps * step_s + plans * PLAN_STEP_S) / workers

@@ -240,15 +240,22 @@ def saturation(counters: dict[str, int] | None) -> str | None:
     return parts[0] if len(parts) == 1 else f"{total:,}: " + ", ".join(parts)
 
 
+def arena_text(side: Any, r: dict[str, Any]) -> str:
+    """"30 x 30 arena", or "12 x 12 x 12 arena, face moves" for a result off the plane's
+    king moves (its ``dims`` and ``moves``)."""
+    dims, moves = r.get("dims", 2), r.get("moves", "king")
+    text = " x ".join([str(side)] * dims) + " arena"
+    return text + (f", {moves} moves" if moves != "king" else "")
+
+
 def show_protocol(r: dict[str, Any], command: str = "emulate") -> None:
     """``emulate`` (and ``evaluate``): the device, success, overhead, the fidelity
     against the float64 twin, saturation and time, under a line of seeds x trials."""
     if "chips" in r:
         show_chips(r)
         return
-    arena = f"{r.get('eval_arena', r.get('arena'))} x {r.get('eval_arena', r.get('arena'))}"
     head = f"{command}: {plural(r.get('seeds', 1), 'seed')} x {plural(r['trials'], 'trial')}, " \
-           f"{arena} arena"
+           f"{arena_text(r.get('eval_arena', r.get('arena')), r)}"
     if r.get("obstacles"):
         head += f", {r['obstacles']} obstacles"
     if r.get("map"):
@@ -281,7 +288,7 @@ def show_chips(r: dict[str, Any]) -> None:
     print(f"emulate: {device_label(r['backend'], p.get('backend_options'))} on "
           f"{plural(chips['n'], 'chip')} ({chips['chip_seeds'][0]}..{chips['chip_seeds'][-1]}"
           f"): {plural(seeds, 'seed')} x {plural(p['trials'], 'trial')} each, "
-          f"{p['arena_size']} x {p['arena_size']} arena")
+          f"{arena_text(p['arena_size'], p)}")
     figures = [("success rate", "success_rate", pct), ("path overhead", "overhead_mean", num),
                ("weight error", "weight_error.matrix_mean", num),
                ("decision agreement", "decision_agreement", pct)]

@@ -145,6 +145,13 @@ def chebyshev(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return d.max(axis=-1)
 
 
+def fewest_moves(p: np.ndarray, q: np.ndarray, moves: str = "king") -> np.ndarray:
+    """The fewest moves between cells on an empty arena: the Chebyshev distance with the
+    king moves (the paper's d_Ch of Eq. 9), the Manhattan distance with the face moves."""
+    d = np.abs(np.asarray(p) - np.asarray(q))
+    return d.max(axis=-1) if moves == "king" else d.sum(axis=-1)
+
+
 @dataclass(frozen=True, eq=False)
 class GridArena:
     """An N x N (or N x N x N) grid; ``blocked`` is a bool array of that shape indexed

@@ -5,7 +5,8 @@ A :class:`Condition` is an empty arena of ``size`` (None: the training arena's) 
 ``obstacles`` point obstacles placed from ``eval_seed``, or a MovingAI ``map`` (of the
 training arena's side) with its ``scen`` problems or pairs drawn from ``eval_seed``;
 ``trials`` pairs, ``planner`` (:data:`~cml_edge.grid.planning.PLANNERS`), ``max_steps``
-(None: :func:`~cml_edge.grid.maps.step_budget` of the arena). The CML never sees it
+(None: :func:`~cml_edge.grid.maps.step_budget` of the arena). In three dimensions the
+arena is a cube and a map a MovingAI voxel map (:mod:`cml_edge.grid.voxels`). The CML never sees it
 while training. Every grid command that evaluates takes its conditions in this form:
 ``emulate`` (:meth:`cml_edge.grid.protocol.Protocol.condition`), the experiments
 (:func:`cml_edge.experiments.common.eval_spec`), the scenarios' parts
@@ -27,6 +28,7 @@ from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs,
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.grid.seed_run import Evaluation
+from cml_edge.grid.voxels import load_voxel_map, load_voxel_scen, resolve_voxel_map, voxel_pairs
 from cml_edge.protocol import EVAL_SEED
 
 
@@ -78,19 +80,29 @@ class Condition(Record):
         its fields, the rest left out."""
         return cls.from_dict({f.name: record[f.name] for f in fields(cls) if f.name in record})
 
-    def evaluation(self, train_size: int) -> Evaluation:
+    def evaluation(self, train_size: int, dims: int = 2, moves: str = "king") -> Evaluation:
         """The arena, pairs, step budget and planner, for models trained on the empty arena
-        of side ``train_size``."""
-        if self.map:
-            grid = load_map(resolve_map(self.map))
-            arena = grid.arena()
+        of side ``train_size`` in ``dims`` dimensions with the ``moves`` set: a map is a
+        MovingAI ``.map`` on the plane, a voxel map (``.3dmap``, :mod:`cml_edge.grid.voxels`)
+        in space."""
+        if self.map and dims == 3:
+            vmap = load_voxel_map(resolve_voxel_map(self.map))
+            arena = vmap.arena(moves)
             if self.scen:
-                pairs = scenario_pairs(grid, load_scen(self.scen), Path(self.scen).name)
+                pairs = voxel_pairs(vmap, load_voxel_scen(self.scen)[1], Path(self.scen).name,
+                                    moves)
+            else:
+                pairs = draw_pairs(arena, self.trials, self.eval_seed)
+        elif self.map:
+            grid = load_map(resolve_map(self.map))
+            arena = grid.arena(moves)
+            if self.scen:
+                pairs = scenario_pairs(grid, load_scen(self.scen), Path(self.scen).name, moves)
             else:
                 pairs = draw_pairs(arena, self.trials, self.eval_seed)
         else:
             size = self.size or train_size
-            arena = (GridArena.with_obstacles(size, self.obstacles, self.eval_seed)
-                     if self.obstacles else GridArena.empty(size))
+            arena = (GridArena.with_obstacles(size, self.obstacles, self.eval_seed, dims, moves)
+                     if self.obstacles else GridArena.empty(size, dims, moves))
             pairs = draw_pairs(arena, self.trials, self.eval_seed)
         return Evaluation(arena, pairs, self.max_steps or step_budget(arena.size), self.planner)

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena
+from cml_edge.grid.arena import GridArena, fewest_moves
 from cml_edge.grid.metrics import Pairs, geodesic_distances
 from cml_edge.io.reading import MiB, read_text
 from cml_edge.sizes import SIZES
@@ -79,12 +79,13 @@ class GridMap:
         """The side of the square arena the map is placed in (padded if not square)."""
         return max(self.height, self.width)
 
-    def arena(self) -> GridArena:
-        """The map as a square :class:`GridArena` indexed [x, y], padded with blocked cells."""
+    def arena(self, moves: str = "king") -> GridArena:
+        """The map as a square :class:`GridArena` indexed [x, y] with the ``moves`` set,
+        padded with blocked cells."""
         n = self.side
         blocked = np.ones((n, n), dtype=bool)
         blocked[: self.width, : self.height] = self.blocked.T
-        return GridArena(n, blocked)
+        return GridArena(n, blocked, moves)
 
 
 @dataclass(frozen=True)
@@ -231,13 +232,15 @@ def format_scen(map_name: str, grid: GridMap, pairs: list[tuple[tuple[int, int],
     return "\n".join(lines) + "\n"
 
 
-def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>") -> Pairs:
-    """The scenarios as evaluation :class:`~cml_edge.grid.metrics.Pairs` on ``grid.arena()``.
+def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>",
+                   moves: str = "king") -> Pairs:
+    """The scenarios as evaluation :class:`~cml_edge.grid.metrics.Pairs` on
+    ``grid.arena(moves)``.
 
     Each problem must fit the map (its width and height agree, start and goal are free
-    cells, and differ); BFS geodesics use this package's moves.
+    cells, and differ); BFS geodesics use those moves.
     """
-    arena = grid.arena()
+    arena = grid.arena(moves)
     starts = np.zeros((len(scenarios), 2), np.int64)
     goals = np.zeros((len(scenarios), 2), np.int64)
     for i, sc in enumerate(scenarios):
@@ -255,8 +258,8 @@ def scenario_pairs(grid: GridMap, scenarios: list[Scenario], name: str = "<scen>
             raise MapFormatError(f"{name}: problem {i + 1} starts at its goal "
                                  f"{sc.goal[0]} {sc.goal[1]}")
         starts[i], goals[i] = sc.start, sc.goal
-    cheb = np.abs(starts - goals).max(axis=1)
-    return Pairs(starts, goals, cheb, geodesic_distances(arena, starts, goals))
+    return Pairs(starts, goals, fewest_moves(starts, goals, moves),
+                 geodesic_distances(arena, starts, goals))
 
 
 def octile_distances(arena: GridArena, source: tuple[int, int]) -> np.ndarray:

@@ -1,7 +1,9 @@
 """Evaluation metrics (paper 2.4.1) and the fixed (start, goal) pairs of the protocol.
 
 - e_pos = ||p_goal - p_final||_2 (Eq. 8);
-- path overhead lambda = steps / d_Ch(p_init, p_goal) (Eq. 9), over successful trials;
+- path overhead lambda = steps / d_Ch(p_init, p_goal) (Eq. 9), over successful trials
+  (d_Ch the fewest moves on the empty arena: Chebyshev with the king moves, on the plane
+  and in space, Manhattan with the face moves);
 - success: the final position is the goal;
 - with obstacles, also steps / geodesic (BFS) distance, and success over the pairs that
   are connected at all.
@@ -19,16 +21,17 @@ from typing import Any
 import numpy as np
 
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena, chebyshev
+from cml_edge.grid.arena import GridArena, fewest_moves
 
 
 @dataclass(frozen=True)
 class Pairs:
-    """Evaluation (start, goal) pairs, with their Chebyshev and geodesic distances."""
+    """Evaluation (start, goal) pairs, with their empty-arena (``chebyshev``: d_Ch of Eq. 9,
+    :func:`~cml_edge.grid.arena.fewest_moves`) and geodesic distances."""
 
     starts: np.ndarray  # (n, dims)
     goals: np.ndarray  # (n, dims)
-    chebyshev: np.ndarray  # (n,)
+    chebyshev: np.ndarray  # (n,) the fewest moves on the empty arena (fewest_moves)
     geodesic: np.ndarray  # (n,), -1 where the goal cannot be reached at all
 
 
@@ -48,13 +51,14 @@ def draw_pairs(arena: GridArena, trials: int, seed: int) -> Pairs:
     for i in range(trials):
         a, b = rng.choice(len(free), size=2, replace=False)
         starts[i], goals[i] = free[a], free[b]
-    return Pairs(starts, goals, chebyshev(starts, goals), geodesic_distances(arena, starts, goals))
+    return Pairs(starts, goals, fewest_moves(starts, goals, arena.moves),
+                 geodesic_distances(arena, starts, goals))
 
 
 def geodesic_distances(arena: GridArena, starts: np.ndarray, goals: np.ndarray) -> np.ndarray:
     """BFS distance (fewest moves of the arena's set) of each pair; -1 where not connected."""
-    if arena.n_obstacles == 0 and arena.moves == "king":
-        return chebyshev(starts, goals)
+    if arena.n_obstacles == 0:
+        return fewest_moves(starts, goals, arena.moves)
     cache: dict[tuple[int, ...], np.ndarray] = {}
     out = np.zeros(len(starts), np.int64)
     for i, (s, g) in enumerate(zip(starts, goals)):
@@ -99,10 +103,11 @@ def pool_pairs(pairs: Pairs, times: int) -> Pairs:
 
 
 def pool_records(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """The metrics of :func:`~cml_edge.grid.metrics.summarize` (Eqs. 8, 9) over the trials
+    """The metrics of :func:`summarize` (Eqs. 8, 9) over the trials
     of several seeds' JSON records (each with its ``final``, ``steps``, ``starts``,
     ``goals``, ``chebyshev`` and ``geodesic`` lists)."""
-    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2) for r in records])
+    final = np.concatenate([np.asarray(r["final"], np.int64).reshape(len(r["steps"]), -1)
+                            for r in records])
     steps = np.concatenate([np.asarray(r["steps"], np.int64) for r in records])
     pairs = Pairs(*(np.concatenate([np.asarray(r[k], np.int64) for r in records])
                     for k in ("starts", "goals", "chebyshev", "geodesic")))

@@ -30,12 +30,18 @@ from cml_edge.core.fidelity import TWIN, pool_seeds
 from cml_edge.core.finite import check_finite
 from cml_edge.core.records import Record, integer
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena
+from cml_edge.grid.arena import DIMS, MOVE_SETS, GridArena
 from cml_edge.grid.condition import Condition
 from cml_edge.grid.metrics import draw_pairs, pool_pairs, summarize
 from cml_edge.grid.paths import default_path
 from cml_edge.grid.planning import MAX_STEPS
-from cml_edge.grid.seed_run import Evaluation, Training, run_fidelity, train_and_evaluate
+from cml_edge.grid.seed_run import (
+    Evaluation,
+    Training,
+    cml_config_for,
+    run_fidelity,
+    train_and_evaluate,
+)
 from cml_edge.grid.training import PATHS, TrainConfig
 from cml_edge.protocol import EVAL_SEED
 
@@ -92,6 +98,11 @@ class Protocol(Record):
     seed; :mod:`cml_edge.grid.chips`)."""
     fidelity: bool = True
     """Measure each seed against its float64 twin (:func:`run_fidelity`)."""
+    dims: int = 2
+    """The arena's dimensions: 2 (the paper's plane) or 3 (a cube of side ``arena_size``)."""
+    moves: str = "king"
+    """The move set (:func:`~cml_edge.grid.arena.move_table`): ``king`` (8 on the plane, 26
+    in space) or ``face`` (4, 6)."""
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -131,11 +142,19 @@ class Protocol(Record):
             put("chip", integer("chip", self.chip, 0, "a chip seed >= 0"))
         if not isinstance(self.fidelity, bool):
             raise InputError(f"fidelity {self.fidelity!r} is not true or false")
+        if self.dims not in DIMS:
+            raise InputError(f"dims {self.dims!r} is not allowed (allowed: 2, 3)")
+        if self.moves not in MOVE_SETS:
+            raise InputError(f"unknown moves {self.moves!r}; allowed: {', '.join(MOVE_SETS)}")
         self.condition()  # its own checks: the map and its scen, the obstacles
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        return {**d, "seeds": list(self.seeds)}
+        """The settings as JSON; ``dims`` and ``moves`` only off the plane's king moves (so a
+        plane's protocol reads as it did before a third dimension existed)."""
+        d = {**asdict(self), "seeds": list(self.seeds)}
+        if (self.dims, self.moves) == (2, "king"):
+            del d["dims"], d["moves"]
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Protocol:
@@ -148,17 +167,21 @@ class Protocol(Record):
             d["train"] = TrainConfig(**train)
         return super().from_dict(d)
 
+    def arena(self) -> GridArena:
+        """The empty training arena: side ``arena_size``, ``dims`` dimensions, ``moves``."""
+        return GridArena.empty(self.arena_size, self.dims, self.moves)
+
     def cml_config(self) -> CMLConfig:
-        """The CML's config: :meth:`~cml_edge.core.cml.CMLConfig.for_arena` of the training
-        arena with the protocol's utility."""
-        return CMLConfig.for_arena(self.arena_size, utility=self.utility)
+        """The CML's config: :func:`~cml_edge.grid.seed_run.cml_config_for` the training
+        arena, with the protocol's utility."""
+        return cml_config_for(self.arena(), utility=self.utility)
 
     def training(self) -> Training:
         """What every seed of the run shares: the empty training arena, the configs, the
         device and the compute path (None: :func:`default_path` of a counted run)."""
         path = self.path or default_path(self.backend, self.train.schedule,
                                          self.backend_options, counted=True)
-        return Training(GridArena.empty(self.arena_size), self.train, self.cml_config(),
+        return Training(self.arena(), self.train, self.cml_config(),
                         self.backend, self.backend_options, path, self.epoch, self.chip)
 
     def condition(self) -> Condition:
@@ -171,7 +194,7 @@ class Protocol(Record):
 
     def evaluation(self) -> Evaluation:
         """:meth:`condition` for the models of this run's training arena."""
-        return self.condition().evaluation(self.arena_size)
+        return self.condition().evaluation(self.arena_size, self.dims, self.moves)
 
 
 def protocol_seed(p: Protocol, seed: int,
@@ -256,13 +279,14 @@ def pool_protocol(protocol: Protocol, records: Sequence[Mapping[str, Any]],
     for r in records:
         for k, v in r["counters"].items():
             counters[k] = counters.get(k, 0) + v
-    pooled = summarize(np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, 2)
+    pooled = summarize(np.concatenate([np.asarray(r["final"], np.int64).reshape(-1, p.dims)
                                        for r in records]),
                        np.concatenate([np.asarray(r["steps"], np.int64) for r in records]),
                        pool_pairs(pairs, len(records)))
     extra = {**pool_seeds([r["fidelity"] for r in records]), "fidelity_twin": TWIN} \
         if p.fidelity else {}
     on_map = {"map": p.map, "scen": p.scen} if p.map is not None else {}
+    in_space = {"dims": p.dims, "moves": p.moves} if (p.dims, p.moves) != (2, "king") else {}
     result = {
         "backend": p.backend,
         "seeds": len(records),
@@ -293,6 +317,7 @@ def pool_protocol(protocol: Protocol, records: Sequence[Mapping[str, Any]],
         "wall_time_s": wall_time_s,
         **extra,
         **on_map,
+        **in_space,
     }
     check_finite(result, "evaluation")
     return result

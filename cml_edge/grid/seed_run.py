@@ -32,6 +32,13 @@ from cml_edge.grid.planning import MAX_STEPS, PlanResult, plan
 from cml_edge.grid.training import TrainConfig, train
 
 
+def cml_config_for(arena: GridArena, **overrides: Any) -> CMLConfig:
+    """The CML's config for a grid arena: :meth:`CMLConfig.for_arena` of its side, with an
+    observation per axis (n_i = the arena's dimensions) and an action per move (n_a)."""
+    return CMLConfig.for_arena(arena.size, **{"n_i": arena.dims, "n_a": arena.n_actions,
+                                              **overrides})
+
+
 @dataclass(frozen=True, eq=False)
 class Evaluation:
     """One evaluation condition: plan ``pairs`` on ``arena`` with ``planner`` within
@@ -54,7 +61,7 @@ class Training:
     arena: GridArena
     config: TrainConfig = TrainConfig()
     cml_config: CMLConfig | None = None
-    """None: :meth:`CMLConfig.for_arena` of the training arena."""
+    """None: :func:`cml_config_for` the training arena."""
     backend: str = "float"
     backend_options: Mapping[str, Any] = field(default_factory=dict)
     path: str | None = None
@@ -101,7 +108,7 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
     """Make the CML of ``seed`` and train it (the first half of :func:`train_and_evaluate`);
     the run has no evaluations yet (:func:`evaluate_seed`). ``on_epoch(walks)`` is called
     after every ``training.epoch`` walks (outside the timed training)."""
-    cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
+    cml_config = training.cml_config or cml_config_for(training.arena)
     cml = CML.create(cml_config, training.backend, seed, training.chip,
                      **training.backend_options)
     path = training.path or default_path(cml, training.config.schedule)
@@ -172,7 +179,7 @@ def run_fidelity(run: SeedRun, training: Training, evaluations: Sequence[Evaluat
     """The run's weight error, decision agreement and read SNR against its float64 twin
     (:mod:`cml_edge.grid.fidelity`), one record per evaluation. ``twin``: the twin if
     already trained. The run itself is not changed."""
-    cml_config = training.cml_config or CMLConfig.for_arena(training.arena.size)
+    cml_config = training.cml_config or cml_config_for(training.arena)
     if twin is None:
         twin = float_twin(run.seed, training.arena, training.config, cml_config)
     return [seed_fidelity(run.seed, run.cml, twin, ev.arena, ev.pairs.goals, res, ev.planner,

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cml_edge.grid.arena import GridArena, chebyshev, move_table
+from cml_edge.grid.arena import GridArena, chebyshev, fewest_moves, move_table
 from cml_edge.grid.maps import MapFormatError
 from cml_edge.grid.metrics import Pairs, geodesic_distances
 from cml_edge.io.reading import MiB, read_text
@@ -64,13 +64,14 @@ class VoxelMap:
         """The side of the cube the map is placed in (padded if not a cube)."""
         return int(max(self.blocked.shape))
 
-    def arena(self) -> GridArena:
-        """The map as a cubic :class:`GridArena`, padded with blocked voxels."""
+    def arena(self, moves: str = "king") -> GridArena:
+        """The map as a cubic :class:`GridArena` with the ``moves`` set, padded with blocked
+        voxels."""
         n = self.side
         blocked = np.ones((n, n, n), dtype=bool)
         w, h, d = self.blocked.shape
         blocked[:w, :h, :d] = self.blocked
-        return GridArena(n, blocked)
+        return GridArena(n, blocked, moves)
 
 
 @dataclass(frozen=True)
@@ -189,11 +190,12 @@ def load_voxel_scen(path: str | Path) -> tuple[str, list[VoxelProblem]]:
     return parse_voxel_scen(text, Path(path).name)
 
 
-def voxel_pairs(vmap: VoxelMap, problems: list[VoxelProblem], name: str = "<3dscen>") -> Pairs:
+def voxel_pairs(vmap: VoxelMap, problems: list[VoxelProblem], name: str = "<3dscen>",
+                moves: str = "king") -> Pairs:
     """The problems as evaluation :class:`~cml_edge.grid.metrics.Pairs` on
-    ``vmap.arena()``: each start and goal a free voxel of the map, the two distinct; BFS
-    geodesics under this package's moves."""
-    arena = vmap.arena()
+    ``vmap.arena(moves)``: each start and goal a free voxel of the map, the two distinct;
+    BFS geodesics under those moves."""
+    arena = vmap.arena(moves)
     starts = np.array([pr.start for pr in problems], np.int64).reshape(-1, 3)
     goals = np.array([pr.goal for pr in problems], np.int64).reshape(-1, 3)
     shape = vmap.blocked.shape
@@ -206,7 +208,8 @@ def voxel_pairs(vmap: VoxelMap, problems: list[VoxelProblem], name: str = "<3dsc
                 raise MapFormatError(f"{name}: problem {i + 1}: {what} {p} is a blocked voxel")
         if pr.start == pr.goal:
             raise MapFormatError(f"{name}: problem {i + 1} starts at its goal {pr.goal}")
-    return Pairs(starts, goals, chebyshev(starts, goals), geodesic_distances(arena, starts, goals))
+    return Pairs(starts, goals, fewest_moves(starts, goals, moves),
+                 geodesic_distances(arena, starts, goals))
 
 
 def voxel_distances(arena: GridArena, source: tuple[int, int, int]) -> np.ndarray:
@@ -248,3 +251,10 @@ def shipped_voxel_path(name: str, suffix: str = ".3dmap") -> Path:
                              f"{', '.join(shipped_voxel_maps())}")
     return path
 
+
+def resolve_voxel_map(spec: str) -> Path:
+    """A voxel map file path, or the name of a shipped voxel map (``floors``, ...)."""
+    p = Path(spec)
+    if p.is_file() or p.suffix == ".3dmap" or "/" in spec:
+        return p
+    return shipped_voxel_path(spec)

@@ -37,7 +37,8 @@ _FULL = BUDGETS["full"]
 PROTOCOL = {"arena": 30, "eval_arena": 30, "walks": _FULL.walks, "steps": _FULL.steps,
             "trials": _FULL.trials, "eval_seed": EVAL_SEED, "explore": "random",
             "schedule": "walk", "planner": "paper", "obstacles": 0, "idle_s": 0.0,
-            "utility": "normalized", "max_steps": MAX_STEPS, "map": None}
+            "utility": "normalized", "max_steps": MAX_STEPS, "map": None, "dims": 2,
+            "moves": "king"}
 """The settings of the ``paper`` scenario as ``emulate``'s JSON names them."""
 
 

@@ -13,6 +13,7 @@ gym = pytest.importorskip("gymnasium")
 
 from cml_edge.grid.arena import MOVES, GridArena  # noqa: E402
 from cml_edge.grid.env import (  # noqa: E402
+    ENV_3D_ID,
     ENV_ID,
     GOAL_ENV_ID,
     GridNavEnv,
@@ -26,6 +27,8 @@ VARIANTS = [
     {"goal_conditioned": True},
     {"goal_conditioned": True, "reward": "tailored", "obstacles": 120},
     {"size": 5, "goal": (0, 4)},
+    {"dims": 3, "size": 8},
+    {"dims": 3, "size": 6, "moves": "face", "goal_conditioned": True, "obstacles": 30},
 ]
 
 
@@ -54,6 +57,23 @@ def test_registered_ids():
     assert obs.shape == (4,)
     env = gym.make("cml_edge.grid.env:cml_edge/GridNav-v0", reward="tailored")
     assert env.unwrapped.reward_name == "tailored"
+    env = gym.make(ENV_3D_ID, size=10)
+    obs, info = env.reset(seed=0, options={"start": (0, 0, 0)})
+    assert obs.shape == (3,) and env.action_space.n == 26 and info["goal"] == (5, 5, 5)
+    obs, _, _, _, info = env.step(8)  # straight up (move_table: the ninth move)
+    assert info["position"] == (0, 0, 1) and obs.tolist()[2] == pytest.approx(2 / 9 - 1)
+    layers = gym.make(ENV_3D_ID, size=4, render_mode="ansi").unwrapped.render()
+    assert layers.startswith("z = 3\n") and "z = 0\n" in layers and layers.count("A") == 1
+
+
+def test_three_dimensional_moves_match_the_arena():
+    arena = GridArena.with_obstacles(5, 25, seed=2, dims=3)
+    cells = np.argwhere(~arena.blocked)
+    for a in range(26):
+        nxt = apply_moves(arena.free, cells, np.full(len(cells), a), arena.move_table)
+        allowed = np.array([arena.available(c)[a] for c in cells])
+        assert ((nxt != cells).any(axis=1) == allowed).all()
+        assert arena.free[tuple(nxt.T)].all()
 
 
 def test_observation_scaling():
