@@ -31,7 +31,7 @@ from numba import njit
 from cml_edge.backends.floating.kernels import _row_dots
 from cml_edge.core.cml import CML
 from cml_edge.core.step import begin_walk, end_walk, learn, norms_and_gram, prepare, scores
-from cml_edge.grid.arena import GridArena, cell_at
+from cml_edge.grid.arena import GridArena
 from cml_edge.grid.training import (
     FactoredLearner,
     factored_begin_walk,
@@ -189,7 +189,7 @@ def fused_factored_of(cml: CML, arena: GridArena):
 
 
 @njit(cache=True, inline="always")
-def fused_factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, p, n, o_t, o_1, a):
+def fused_factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, n, o_t, o_1, a):
     """The factored step on the learner's arrays, passed as arguments (the yardstick of
     :mod:`cml_edge.bench.fused`)."""
     n_i = o_t.shape[0]
@@ -202,9 +202,9 @@ def fused_factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, p, n, o_
             C[i, j] += di * o_1[j]
     cnt[a] += 1.0
     # the cell of o_t (the frame maps cells to observations one to one)
+    c = 0
     for i in range(n_i):
-        p[i] = int(round(o_t[i] * frame[1] + frame[0]))
-    c = cell_at(p, n)
+        c = c * n + int(round(o_t[i] * frame[1] + frame[0]))
     if visits[c] == 0:
         cells[n_cells[0]] = c
         n_cells[0] += 1
@@ -215,7 +215,7 @@ def fused_factored_step(E, B, D, C, cnt, visits, cells, n_cells, frame, p, n, o_
 @njit(cache=True, inline="always")
 def _ff_learn(fl, o_t, o_1, a):
     return fused_factored_step(fl.E, fl.B, fl.D, fl.C, fl.cnt, fl.visits, fl.cells, fl.n_cells,
-                               fl.frame, fl.p, fl.n, o_t, o_1, a)
+                               fl.frame, fl.n, o_t, o_1, a)
 
 
 begin_walk.register(FusedLearner, _fused_begin_walk)

@@ -125,11 +125,11 @@ def _load_map_args(args: argparse.Namespace, dims: int = 2, moves: str = "king")
     if getattr(args, "obstacles", 0):
         raise InputError(f"--obstacles {args.obstacles} cannot be combined with --map (the map "
                          f"is the evaluation arena)")
-    scen = getattr(args, "scen", None)
-    ev = Condition(map=args.map, scen=scen).evaluation(2, dims, moves)
-    limits.recheck(args, arena=ev.arena.size, dims=dims,
-                   **({} if scen is None else {"trials": len(ev.pairs.goals)}))
-    return ev.arena, (ev.pairs if scen else None)
+    arena, pairs = Condition(map=args.map, scen=getattr(args, "scen", None)).map_arena(dims,
+                                                                                    moves)
+    limits.recheck(args, arena=arena.size, dims=dims,
+                   **({} if pairs is None else {"trials": len(pairs.goals)}))
+    return arena, pairs
 
 
 def _budget(args: argparse.Namespace, side: int, on_map: bool) -> int:

@@ -25,7 +25,7 @@ from cml_edge.core.records import Record, integer
 from cml_edge.errors import InputError
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs, step_budget
-from cml_edge.grid.metrics import draw_pairs
+from cml_edge.grid.metrics import Pairs, draw_pairs
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.grid.seed_run import Evaluation
 from cml_edge.grid.voxels import load_voxel_map, load_voxel_scen, resolve_voxel_map, voxel_pairs
@@ -80,29 +80,31 @@ class Condition(Record):
         its fields, the rest left out."""
         return cls.from_dict({f.name: record[f.name] for f in fields(cls) if f.name in record})
 
-    def evaluation(self, train_size: int, dims: int = 2, moves: str = "king") -> Evaluation:
-        """The arena, pairs, step budget and planner, for models trained on the empty arena
-        of side ``train_size`` in ``dims`` dimensions with the ``moves`` set: a map is a
-        MovingAI ``.map`` on the plane, a voxel map (``.3dmap``, :mod:`cml_edge.grid.voxels`)
-        in space."""
-        if self.map and dims == 3:
+    def map_arena(self, dims: int = 2, moves: str = "king") -> tuple[GridArena, Pairs | None]:
+        """The map's arena with the ``moves`` set and its ``scen`` problems (None without a
+        scen file): a MovingAI ``.map`` on the plane, a voxel map (``.3dmap``,
+        :mod:`cml_edge.grid.voxels`) in space. Reads and checks the files, nothing more."""
+        if dims == 3:
             vmap = load_voxel_map(resolve_voxel_map(self.map))
             arena = vmap.arena(moves)
-            if self.scen:
-                pairs = voxel_pairs(vmap, load_voxel_scen(self.scen)[1], Path(self.scen).name,
-                                    moves)
-            else:
-                pairs = draw_pairs(arena, self.trials, self.eval_seed)
-        elif self.map:
-            grid = load_map(resolve_map(self.map))
-            arena = grid.arena(moves)
-            if self.scen:
-                pairs = scenario_pairs(grid, load_scen(self.scen), Path(self.scen).name, moves)
-            else:
-                pairs = draw_pairs(arena, self.trials, self.eval_seed)
+            return arena, (voxel_pairs(vmap, load_voxel_scen(self.scen)[1],
+                                       Path(self.scen).name, moves) if self.scen else None)
+        grid = load_map(resolve_map(self.map))
+        return grid.arena(moves), (scenario_pairs(grid, load_scen(self.scen),
+                                                  Path(self.scen).name, moves)
+                                   if self.scen else None)
+
+    def evaluation(self, train_size: int, dims: int = 2, moves: str = "king") -> Evaluation:
+        """The arena, pairs, step budget and planner, for models trained on the empty arena
+        of side ``train_size`` in ``dims`` dimensions with the ``moves`` set (a map:
+        :meth:`map_arena`, its problems or pairs drawn on it)."""
+        pairs = None
+        if self.map:
+            arena, pairs = self.map_arena(dims, moves)
         else:
             size = self.size or train_size
             arena = (GridArena.with_obstacles(size, self.obstacles, self.eval_seed, dims, moves)
                      if self.obstacles else GridArena.empty(size, dims, moves))
+        if pairs is None:
             pairs = draw_pairs(arena, self.trials, self.eval_seed)
         return Evaluation(arena, pairs, self.max_steps or step_budget(arena.size), self.planner)

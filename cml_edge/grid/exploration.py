@@ -57,9 +57,27 @@ def threshold(walk, n_expl):
     return 1.0 - walk / n_expl
 
 
+def _byte_tables() -> tuple[np.ndarray, np.ndarray]:
+    popcount_ = np.array([bin(m).count("1") for m in range(256)], dtype=np.int64)
+    nth = np.full((256, 8), -1, dtype=np.int64)
+    for m in range(256):
+        for r, a in enumerate(a for a in range(8) if m >> a & 1):
+            nth[m, r] = a
+    return popcount_, nth
+
+
+# BYTE_COUNT[m]: the moves a mask m < 256 allows; BYTE_NTH[m, r]: the r-th of them, ascending
+BYTE_COUNT, BYTE_NTH = _byte_tables()
+
+
 @njit(cache=True)
 def random_action(moves, u):
-    """The floor(u * n)-th of the n moves in bitmask ``moves`` (uniform for u ~ U[0, 1))."""
+    """The floor(u * n)-th of the n moves in bitmask ``moves`` (uniform for u ~ U[0, 1)):
+    two table lookups for the plane's masks (a byte; the choice is random, so a loop over
+    the bits would mispredict), the bits counted and walked for larger ones."""
+    if moves < 256:
+        n = BYTE_COUNT[moves]
+        return BYTE_NTH[moves, min(int(u * n), n - 1)]
     n = popcount(moves)
     return nth_move(moves, min(int(u * n), n - 1))
 

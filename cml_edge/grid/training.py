@@ -45,7 +45,7 @@ from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defer
 from cml_edge.core.step import SeamLearner, begin_walk, copy_matrix, end_walk, learn
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena, cell_at, observe, position
+from cml_edge.grid.arena import GridArena, observe, position
 from cml_edge.grid.exploration import (
     N_EXPL_FRACTION,
     GridExplorer,
@@ -135,15 +135,16 @@ def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
                                        explorer.keys)
     novelty, best = explorer.novelty, explorer.best
     table = cells.table
-    o_t = explorer.obs[0]  # a cell's observation
-    o_1 = explorer.obs[1]
-    p = explorer.pos[0]  # its position
+    o_t = explorer.obs[0]  # the observation of the cell, then of the next (swapped as
+    o_1 = explorer.obs[1]  # the agent moves: o_{t+1} is the next step's o_t)
+    p = explorer.pos[0]  # the cell's position, then the next's
     p_1 = explorer.pos[1]
     q = explorer.pos[2]
     off = explorer.pos[3]
     for w in range(w0, w1):
         c = nth_free_cell(cells.free, randint(keys[0], w, explorer.n_free))
         position(c, cells.n, p)
+        observe(p, origin, scale, o_t)
         visit(visited, n_visited, c)
         t_expl = threshold(w, explorer.n_expl)
         begin_walk(learner)
@@ -153,12 +154,11 @@ def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
                               keys[1], w * steps + t, novelty, best, q, off)
             for k in range(p.shape[0]):
                 p_1[k] = p[k] + table[a, k]
-            observe(p, origin, scale, o_t)
             observe(p_1, origin, scale, o_1)
             total += learn(learner, o_t, o_1, a)
             c += cells.offsets[a]
-            for k in range(p.shape[0]):
-                p[k] = p_1[k]
+            p, p_1 = p_1, p
+            o_t, o_1 = o_1, o_t
             visit(visited, n_visited, c)
         total += end_walk(learner)
         errors[w] = total / steps
@@ -242,9 +242,9 @@ def factored_learn(fl, o_t, o_1, a):
             fl.C[i, j] += di * o_1[j]
     fl.cnt[a] += 1.0
     # the cell of o_t (the frame maps cells to observations one to one)
+    c = 0
     for i in range(n_i):
-        fl.p[i] = int(round(o_t[i] * fl.frame[1] + fl.frame[0]))
-    c = cell_at(fl.p, fl.n)
+        c = c * fl.n + int(round(o_t[i] * fl.frame[1] + fl.frame[0]))
     if fl.visits[c] == 0:
         fl.cells[fl.n_cells[0]] = c
         fl.n_cells[0] += 1
