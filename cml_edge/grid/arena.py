@@ -240,12 +240,13 @@ class GridArena:
         m = int(self.move_masks[tuple(int(p) for p in pos)])
         return np.array([m >> a & 1 for a in range(self.n_actions)], dtype=bool)
 
-    def geodesic(self, source) -> np.ndarray:
+    def geodesic(self, source, cells: Cells | None = None) -> np.ndarray:
         """BFS distances (fewest moves of the arena's set) from ``source``, in the arena's
-        shape; -1 where unreachable."""
+        shape; -1 where unreachable. ``cells``: :meth:`cells`, when the caller searches
+        from many sources."""
         dist = np.full(self.blocked.size, -1, dtype=np.int64)
         if self.is_free(source):
-            cells = self.cells()
+            cells = self.cells() if cells is None else cells
             start = int(np.ravel_multi_index(tuple(int(p) for p in source), self.blocked.shape))
             bfs_cells(cells.masks, cells.offsets, start, dist,
                       np.zeros(self.blocked.size, np.int64))

@@ -61,10 +61,11 @@ def geodesic_distances(arena: GridArena, starts: np.ndarray, goals: np.ndarray) 
         return fewest_moves(starts, goals, arena.moves)
     cache: dict[tuple[int, ...], np.ndarray] = {}
     out = np.zeros(len(starts), np.int64)
+    cells = arena.cells()  # the move masks, once for every search
     for i, (s, g) in enumerate(zip(starts, goals)):
         key = tuple(int(v) for v in g)
         if key not in cache:
-            cache[key] = arena.geodesic(key)  # the moves are symmetric: BFS from the goal
+            cache[key] = arena.geodesic(key, cells)  # the moves are symmetric: from the goal
         out[i] = cache[key][tuple(int(v) for v in s)]
     return out
 
