@@ -22,9 +22,11 @@ GYMNASIUM_ENVS = {
     "cml_edge/GridNavGoal-v0": ("cml_edge.grid.env:GridNavEnv", {"goal_conditioned": True}),
     "cml_edge/GridNav3D-v0": ("cml_edge.grid.env:GridNavEnv", {"dims": 3}),
     "cml_edge/RobotNav-v0": ("cml_edge.robot.env:RobotNavEnv", {}),
+    "cml_edge/DroneNav-v0": ("cml_edge.drone.env:DroneNavEnv", {}),
 }
-"""The Gymnasium environment ids of the grid (:mod:`cml_edge.grid.env`) and the robot
-(:mod:`cml_edge.robot.env`), and their entry points and keyword arguments."""
+"""The Gymnasium environment ids of the grid (:mod:`cml_edge.grid.env`), the robot
+(:mod:`cml_edge.robot.env`) and the drone (:mod:`cml_edge.drone.env`), and their entry
+points and keyword arguments."""
 
 
 def _numba_cache_dir() -> None:

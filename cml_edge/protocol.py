@@ -38,6 +38,12 @@ STREAM_ROBOT_EXPLORE = 49
 """The robot: exploration actions (counter w x steps + t)."""
 STREAM_ROBOT_GOALS = 50
 """The robot: evaluation goals of the evaluation seed (counters 2i, 2i + 1)."""
+STREAM_DRONE_START = 60
+"""The drone: start position of each training walk (counters 3w .. 3w + 2)."""
+STREAM_DRONE_EXPLORE = 61
+"""The drone: exploration actions (counter w x steps + t)."""
+STREAM_DRONE_GOALS = 62
+"""The drone: evaluation goals of the evaluation seed (counters 3i .. 3i + 2)."""
 
 # the DQN baseline's rewards (paper Eqs. 6 and 7) ------------------------------------------
 REWARDS = ("simplified", "tailored")

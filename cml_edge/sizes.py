@@ -71,6 +71,9 @@ SIZES: dict[str, Size] = {
     "mujoco_torque": Size(1e-3, 100.0, "N m: a mobile robot's wheel motors (0.2 modelled)"),
     "heading_scale": Size(1e-4, 1.0, "the heading's weight against positions scaled to "
                                      "about 1 (1/30, a cell, by default)"),
+    "sensor_weight": Size(0.0, 2.0, "the range sensors' inputs together against positions "
+                          "scaled to [-0.5, 0.5]; Eq. 3 diverges well before 2"),
+    "sensor_range": Size(1, 1024, "cells: at most the side of the largest arena"),
     "obs_scale": Size(1e-2, 1e4, "the length, in cells or metres, that maps positions to "
                                  "about -0.5..0.5: an arena side"),
 }

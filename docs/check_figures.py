@@ -130,7 +130,7 @@ def extra_of(argv: list[str]) -> str | None:
         return "dqn"
     if "--scheduler" in argv:
         return "distributed"
-    if argv[1:2] == ["robot"] and "mujoco" in argv:
+    if argv[1:2] in (["robot"], ["drone"]) and "mujoco" in argv:
         return "robot"
     return None
 

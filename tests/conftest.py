@@ -62,6 +62,32 @@ def cli(capsys):
     return run
 
 
+@pytest.fixture
+def cli_json(cli):
+    """``cli_json(*argv)``: the JSON ``cml-edge ... --json`` prints (the run must succeed)."""
+    import json
+
+    def run(*argv):
+        code, out, err = cli(*argv, "--json")
+        assert code == 0, err
+        return json.loads(out)
+
+    return run
+
+
+@pytest.fixture
+def cli_bad(cli):
+    """``cli_bad(*argv)``: the one error line of a run refused as bad input (exit 2, nothing
+    on stdout)."""
+
+    def run(*argv):
+        code, out, err = cli(*argv)
+        assert code == 2 and out == "", (code, out, err)
+        return err.strip().splitlines()[-1]
+
+    return run
+
+
 def pytest_addoption(parser):
     parser.addoption("--slow", action="store_true",
                      help="also run the tests marked slow (CI runs everything)")

@@ -27,6 +27,12 @@ backend's direct path / float64 direct, per training and per planning step (goal
 (driving to goals from the base), each timed after a compiling warm-up: 10 walks x 900
 actions and 100 goals on the kinematic simulator, 1 walk x 300 actions and 5 goals on
 MuJoCo, which is physics-bound (its figures are in benchmarks/README.md).
+
+``--dims 3`` (``dims`` of :func:`run_bench`) adds ``space``: each named backend's direct
+path timed again in the 30 x 30 x 30 volume with the 26 king moves (``--moves face``: 6),
+and, for each, the training step per synapse (CPU nanoseconds per step over the CML's
+(N_i + 2 N_a) N_s weights: 4,608 on the plane, 14,080 in space) on the plane and in
+space, measured in the same run, and their ratio (goal: within 2, :data:`GOALS` ``space``).
 """
 
 from __future__ import annotations
@@ -40,12 +46,13 @@ import numpy as np
 
 from cml_edge.backends import backend_spec, configurations
 from cml_edge.bench.fused import FusedLearner, FusedScorer, fused_factored_of
-from cml_edge.core.cml import CML, CMLConfig
+from cml_edge.core.cml import CML
 from cml_edge.core.step import FactoredScorer, SeamScorer
 from cml_edge.grid.arena import GridArena
 from cml_edge.grid.exploration import GridExplorer
 from cml_edge.grid.metrics import draw_pairs
 from cml_edge.grid.planning import WTA, PlanResult, plan_loop
+from cml_edge.grid.seed_run import cml_config_for
 from cml_edge.grid.training import (
     FactoredLearner,
     SeamLearner,
@@ -56,7 +63,7 @@ from cml_edge.grid.training import (
 from cml_edge.protocol import EVAL_SEED
 
 WALKS, STEPS = 100, 900
-GOALS = {"direct": 1.3, "factored": 1.1, "device": 2.0}
+GOALS = {"direct": 1.3, "factored": 1.1, "device": 2.0, "space": 2.0}
 """The goals for the ratios (module docstring)."""
 
 LEARNERS: dict[str, Callable[[CML, GridArena], Any]] = {
@@ -97,7 +104,7 @@ def _median_time(run: Callable[[int], float], repeats: int) -> float:
 
 
 def _model(arena: GridArena, backend: str, options: dict[str, Any], seed: int) -> CML:
-    return CML.create(CMLConfig.for_arena(arena.size), backend, seed, **options)
+    return CML.create(cml_config_for(arena), backend, seed, **options)
 
 
 def time_train(arena: GridArena, config: TrainConfig, seed: int, backend: str,
@@ -128,12 +135,14 @@ def time_plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
 
 
 def bench_backend(name: str, repeats: int = 5, paths: Sequence[str] | None = None,
-                  settings: Sequence[str] = ()) -> dict[str, float]:
+                  settings: Sequence[str] = (), dims: int = 2,
+                  moves: str = "king") -> dict[str, float]:
     """The figures of one backend name (see the module docstring), its device fields set
     by ``settings``; ``paths`` defaults to the direct path, and the factored one where the
-    arrays support it."""
+    arrays support it; on the 30 x 30 arena, or the 30 x 30 x 30 volume (``dims`` 3)
+    with the ``moves`` set."""
     backend, options = parse_name(name, settings)
-    arena = GridArena.empty(30)
+    arena = GridArena.empty(30, dims, moves)
     pairs = draw_pairs(arena, 100, EVAL_SEED)
     starts = np.ascontiguousarray(pairs.starts, dtype=np.int64)
     goals = np.ascontiguousarray(pairs.goals, dtype=np.int64)
@@ -187,16 +196,39 @@ def ratios(float_figs: dict[str, float], fused: dict[str, float],
     return out
 
 
+def per_synapse(plane: dict[str, float], space: dict[str, float], synapses: tuple[int, int]
+                ) -> dict[str, float]:
+    """The training step per synapse on the plane and in space (ns), their ratio and its
+    goal, from one backend's figures in both (``train_step_us_random``) and the CML's
+    weights in each (``synapses``)."""
+    two = plane["train_step_us_random"] * 1e3 / synapses[0]
+    three = space["train_step_us_random"] * 1e3 / synapses[1]
+    return {"train_step_ns_per_synapse_2d": two, "train_step_ns_per_synapse_3d": three,
+            "synapses_2d": synapses[0], "synapses_3d": synapses[1], "ratio": three / two,
+            "goal": GOALS["space"]}
+
+
+def synapse_counts(dims: int, moves: str) -> tuple[int, int]:
+    """The CML's weights on the 30 x 30 plane (king moves) and in the ``dims``-D world."""
+    plane, space = (CML.create(cml_config_for(a)).parameter_count()
+                    for a in (GridArena.empty(30), GridArena.empty(30, dims, moves)))
+    return plane, space
+
+
 def run_bench(names: Sequence[str], repeats: int = 5,
               progress: Callable[[int, int], None] | None = None,
-              settings: Sequence[str] = ()) -> dict[str, object]:
+              settings: Sequence[str] = (), dims: int = 2,
+              moves: str = "king") -> dict[str, object]:
     """``{"backends": {key: figures}, "yardstick": ..., "ratios": ...}`` for each name, with
     ``settings`` (``field=value``) applied to each named backend (its key then lists them,
     :func:`label`); float64 and the yardstick are always timed, as they are (the ratios'
-    denominators)."""
+    denominators). ``dims`` 3 (or ``moves`` face): also ``space``, each name's direct
+    path in that world and its step per synapse against the plane's (module
+    docstring)."""
     for name in names:
         parse_name(name, settings)
-    total = len(names) + 1
+    in_space = (dims, moves) != (2, "king")
+    total = len(names) + 1 + (len(dict.fromkeys(["float", *names])) if in_space else 0)
     fused = bench_backend("float", repeats, ("fused", "fused_factored"))
     if progress is not None:
         progress(1, total)
@@ -208,9 +240,20 @@ def run_bench(names: Sequence[str], repeats: int = 5,
         if progress is not None:
             progress(min(i + 2, total), total)
     others = {n: f for n, f in result.items() if n != "float"}
-    return {"backends": {k: result[k] for k in keys}, "yardstick": fused,
-            "ratios": ratios(result["float"], fused, others), "repeats": repeats,
-            "walks": WALKS, "steps": STEPS, "settings": [s.strip() for s in settings]}
+    out = {"backends": {k: result[k] for k in keys}, "yardstick": fused,
+           "ratios": ratios(result["float"], fused, others), "repeats": repeats,
+           "walks": WALKS, "steps": STEPS, "settings": [s.strip() for s in settings]}
+    if in_space:
+        synapses = synapse_counts(dims, moves)
+        space: dict[str, dict[str, float]] = {}
+        for i, key in enumerate(dict.fromkeys(["float", *keys])):
+            figs = bench_backend(keys.get(key, "float"), repeats, ("direct",),
+                                 settings if key != "float" else (), dims, moves)
+            space[key] = {**figs, **per_synapse(result[key], figs, synapses)}
+            if progress is not None:
+                progress(min(len(result) + 2 + i, total), total)
+        out["space"] = {"dims": dims, "moves": moves, "backends": space}
+    return out
 
 
 ROBOT_BUDGETS = {"kinematic": (10, 900, 100), "mujoco": (1, 300, 5)}  # walks, steps, goals

@@ -2,6 +2,7 @@
 
 - :mod:`~cml_edge.cli.grid`: ``train``, ``evaluate``, ``navigate``, ``emulate``;
 - :mod:`~cml_edge.cli.robot`: ``robot train|evaluate|navigate``;
+- :mod:`~cml_edge.cli.drone`: ``drone train|evaluate|navigate``;
 - :mod:`~cml_edge.cli.dqn`: ``dqn train|evaluate``;
 - :mod:`~cml_edge.cli.tools`: ``sweep``, ``report``, ``bench``;
 - :mod:`~cml_edge.cli.scenario`: ``scenario``, ``breakpoint``;
@@ -43,7 +44,19 @@ import sys
 
 from cml_edge import __version__
 from cml_edge.backends import plugins
-from cml_edge.cli import compiling, device, dqn, export, grid, lava, limits, robot, scenario, tools
+from cml_edge.cli import (
+    compiling,
+    device,
+    dqn,
+    drone,
+    export,
+    grid,
+    lava,
+    limits,
+    robot,
+    scenario,
+    tools,
+)
 from cml_edge.cli.args import distinct_outputs, hold_estimate, limit_options
 from cml_edge.cli.compiling import announce_compiles
 from cml_edge.cli.output import show_fields, show_profile
@@ -52,9 +65,9 @@ from cml_edge.engine import timings
 from cml_edge.engine.stop import interrupt_behind, raise_if_stopped, stop_on_signals, stop_signal
 from cml_edge.errors import InputError, RunError
 
-COMMAND_GROUPS = (grid, tools, compiling, scenario, robot, dqn, device, export, lava)
+COMMAND_GROUPS = (grid, tools, compiling, scenario, robot, drone, dqn, device, export, lava)
 TIMED = ("train", "evaluate", "emulate", "sweep", "report", "scenario", "breakpoint", "robot",
-         "dqn", "compile")
+         "drone", "dqn", "compile")
 """The commands whose ``--json`` object carries ``timings``."""
 PROFILE_HELP = "after the command, print its longest stages (wall, CPU and compile time) " \
                "on stderr"
@@ -93,7 +106,7 @@ def _profile_option(sub: argparse._SubParsersAction) -> None:
                 _profile_option(action)
 
 
-COMMANDS = {"train", "evaluate", "navigate", "emulate", "robot", "dqn", "sweep", "report",
+COMMANDS = {"train", "evaluate", "navigate", "emulate", "robot", "drone", "dqn", "sweep", "report",
             "bench", "compile", "scenario", "breakpoint", "device", "export", "lava"}
 """The command names (where ``--plugin`` options end)."""
 

@@ -58,7 +58,7 @@ def what_compiles(args: argparse.Namespace) -> tuple[str, str]:
     if args.command == "compile":
         return "the named devices' kernels and grid loops", BENCH_MINUTES
     robot = args.command == "robot" or getattr(args, "name", None) == "robot"  # a scenario
-    world = "robot" if robot else "grid"
+    world = "drone" if args.command == "drone" else "robot" if robot else "grid"
     device = f"the {backend} kernels and " if backend else "the "
     return f"{device}{world} loops", COLD_MINUTES
 

@@ -55,6 +55,7 @@ from cml_edge.grid.paths import default_path
 from cml_edge.grid.planning import MAX_STEPS, PLANNERS, plan
 from cml_edge.grid.protocol import Protocol, run_protocol
 from cml_edge.grid.seed_run import Evaluation, cml_config_for
+from cml_edge.grid.sensors import GOALS, Sensors
 from cml_edge.grid.training import PATHS, TrainConfig, train
 from cml_edge.io.files import atomic_write, writable_file, writable_folder
 from cml_edge.protocol import EVAL_SEED
@@ -84,6 +85,41 @@ def _add_training(p: argparse.ArgumentParser, counted: bool = False) -> None:
     p.add_argument("--path", choices=PATHS, default=None,
                    help="compute path: factored (float fast path), direct (compiled, through "
                         f"the array), reference (plain Python); default {default}")
+
+
+def _add_sensors(p: argparse.ArgumentParser) -> None:
+    """Range sensors in the embedding (:mod:`cml_edge.grid.sensors`)."""
+    d = Sensors()
+    p.add_argument("--sensors", type=nonneg_int, default=None, metavar="K",
+                   help="append K range readings to the observation (the face or king "
+                        "directions: 4 or 8 on the plane, 6 or 26 in space; 0: none, but "
+                        "train among obstacles) and train among obstacles (default: none, "
+                        "the paper's empty arena)")
+    p.add_argument("--sensor-range", type=positive_int, default=d.range, metavar="R",
+                   help=f"cells a sensor sees, readings clipped there ({d.range})")
+    p.add_argument("--sensor-weight", type=finite_float, default=d.weight, metavar="W",
+                   help=f"the K sensor inputs together against positions in [-0.5, 0.5] "
+                        f"({d.weight})")
+    p.add_argument("--sensor-goal", choices=GOALS, default=d.goal,
+                   help="the goal's sensor inputs: open (open space, zero: a pull away from "
+                        "what is near) or here (the agent's own: they cancel) "
+                        f"(default {d.goal})")
+    p.add_argument("--train-obstacles", type=nonneg_int, default=None, metavar="N",
+                   help="with --sensors: point obstacles of the training arena, placed from "
+                        f"layout seed {d.layout_seed} (default: a third of the cells)")
+
+
+def _sensors(args: argparse.Namespace) -> Sensors | None:
+    """The ``--sensors`` options as a record (None without ``--sensors``); checked against
+    the arena."""
+    if args.sensors is None:
+        if args.train_obstacles is not None:
+            raise InputError("--train-obstacles needs --sensors")
+        return None
+    sensors = Sensors(args.sensors, args.sensor_range, args.sensor_weight, args.sensor_goal,
+                      args.train_obstacles)
+    sensors.check(args.dims, args.moves, args.arena)
+    return sensors
 
 
 def _add_eval(p: argparse.ArgumentParser) -> None:
@@ -145,6 +181,7 @@ def add_parsers(sub) -> None:
     """The grid commands."""
     p = sub.add_parser("train", help="train one CML and save it")
     _add_training(p)
+    _add_sensors(p)
     add_backend(p)
     p.add_argument("--seed", type=nonneg_int, default=0, help="model seed (0)")
     p.add_argument("--out", required=True, help="model file to write (.npz)")
@@ -217,10 +254,12 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     writable_file(args.out, "--out")
     options = backend_options(args)
     config = TrainConfig(args.walks, args.steps, args.explore, args.schedule)
-    arena = GridArena.empty(args.arena, args.dims, args.moves)
+    sensors = _sensors(args)
+    arena = (GridArena.sensed(sensors, args.arena, args.dims, args.moves) if sensors else
+             GridArena.empty(args.arena, args.dims, args.moves))
     cml = CML.create(cml_config_for(arena, utility=args.utility), args.backend, args.seed,
                      **options)
-    path = args.path or default_path(cml, args.schedule)
+    path = args.path or default_path(cml, args.schedule, arena=arena)
     t0 = time.perf_counter()
     bar = Progress("train")
     bar(0, config.walks)
@@ -228,6 +267,7 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
         errors = train(cml, arena, config, args.seed, path=path,
                        on_epoch=lambda done: bar(done, config.walks))
     record = {"arena": args.arena, "dims": args.dims, "moves": args.moves,
+              **({"sensors": sensors.to_dict()} if sensors else {}),
               "walks": args.walks, "steps": args.steps,
               "explore": args.explore, "schedule": args.schedule, "seed": args.seed,
               "path": path, "backend_options": options, "train_error": errors.tolist(),
@@ -238,32 +278,42 @@ def cmd_train(args: argparse.Namespace) -> dict[str, Any]:
     out = {"model": args.out, "backend": args.backend, **{k: record[k] for k in (
         "arena", "walks", "steps", "explore", "schedule", "seed")}, "compute_path": path,
         "path": path, "wall_time_s": record["wall_time_s"],
-        "final_train_error": float(errors[-1]), **_in_space(args.dims, args.moves),
+        "final_train_error": float(errors[-1]), **_in_space(args.dims, args.moves, sensors),
         **beyond_reference(args.backend, options, args.schedule)}
     if path != "factored":  # the factored shortcut bypasses the arrays: nothing to count
         out["counters"] = cml.counters()
     return out
 
 
-def _in_space(dims: int, moves: str) -> dict[str, Any]:
-    """The keys a result adds off the plane's king moves (none on the plane: its results
-    read as before)."""
-    return {"dims": dims, "moves": moves} if (dims, moves) != (2, "king") else {}
+def _in_space(dims: int, moves: str, sensors: Sensors | None = None) -> dict[str, Any]:
+    """The keys a result adds off the plane's king moves and with range sensors (none on
+    the plane without them: its results read as before)."""
+    return {**({"dims": dims, "moves": moves} if (dims, moves) != (2, "king") else {}),
+            **({"sensors": sensors.to_dict()} if sensors else {})}
 
 
-def _model_world(cml: CML, record: dict[str, Any], model: str) -> tuple[int, str]:
-    """(dims, moves) a model was trained with (a file without them: the plane's king
-    moves), checked against its CML's inputs and actions."""
+def _model_world(cml: CML, record: dict[str, Any], model: str
+                 ) -> tuple[int, str, Sensors | None]:
+    """(dims, moves, range sensors) a model was trained with (a file without them: the
+    plane's king moves, no sensors), checked against its CML's inputs and actions."""
     dims, moves = int(record.get("dims", 2)), record.get("moves", "king")
     if dims not in DIMS or moves not in MOVE_SETS:
         raise InputError(f"{model!r} records dims {dims!r} and moves {moves!r} (allowed: "
                          f"dims 2 or 3, moves {' or '.join(MOVE_SETS)})")
+    sensed = record.get("sensors")
+    if sensed is not None and not isinstance(sensed, dict):
+        raise InputError(f"{model!r} records sensors {sensed!r} (allowed: a JSON object)")
+    sensors = Sensors.from_dict(sensed) if sensed is not None else None
+    if sensors is not None:
+        sensors.check(dims, moves, int(record.get("arena", 30)))
+    n_i = dims + (sensors.k if sensors else 0)
     n_a = len(move_table(dims, moves))
-    if (cml.config.n_i, cml.config.n_a) != (dims, n_a):
+    if (cml.config.n_i, cml.config.n_a) != (n_i, n_a):
         raise InputError(f"{model!r} has {cml.config.n_i} inputs and {cml.config.n_a} "
-                         f"actions; a grid model of {dims} dimensions with {moves} moves has "
-                         f"{dims} and {n_a}")
-    return dims, moves
+                         f"actions; a grid model of {dims} dimensions with {moves} moves"
+                         f"{f' and {sensors.k} range sensors' if sensors else ''} has "
+                         f"{n_i} and {n_a}")
+    return dims, moves, sensors
 
 
 def _eval_arena(args: argparse.Namespace, record: dict[str, Any], dims: int,
@@ -280,9 +330,10 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
                          f"the arena)")
     with stage("load"):
         cml, record = load_model(args.model)
-    dims, moves = _model_world(cml, record, args.model)
+    dims, moves, sensors = _model_world(cml, record, args.model)
     grid, scen_pairs = _load_map_args(args, dims, moves)
-    arena = grid if grid is not None else _eval_arena(args, record, dims, moves)
+    arena = (grid if grid is not None else _eval_arena(args, record, dims, moves)
+             ).sensing(sensors)
     twin = {k: record[k] for k in ("walks", "steps") if k in record}  # its training
     limits.recheck(args, arena=arena.size, dims=dims, trials=len(scen_pairs.goals)
                    if scen_pairs else args.trials, **twin)
@@ -296,7 +347,7 @@ def cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     out = {"model": args.model, "backend": cml.backend, "seeds": 1, **result,
            "arena": arena.size, "obstacles": args.obstacles, "eval_seed": args.seed,
            "compute_path": path, "path": path, "planner": args.planner, "max_steps": budget,
-           **_in_space(dims, moves)}
+           **_in_space(dims, moves, sensors)}
     if grid is not None:
         out.update({"map": args.map, "scen": args.scen})
     out.update(_model_fidelity(cml, record, arena, pairs, res, args.planner, budget))
@@ -315,7 +366,9 @@ def _model_fidelity(cml: CML, record: dict[str, Any], arena: GridArena, pairs: P
     config = TrainConfig(int(record["walks"]), int(record["steps"]), record["explore"],
                          record["schedule"])
     seed = int(record["seed"])
-    train_arena = GridArena.empty(int(record["arena"]), arena.dims, arena.moves)
+    size = int(record["arena"])
+    train_arena = (GridArena.sensed(arena.sensors, size, arena.dims, arena.moves)
+                   if arena.sensors else GridArena.empty(size, arena.dims, arena.moves))
     twin = float_twin(seed, train_arena, config, cml.config)
     fid = seed_fidelity(seed, cml, twin, arena, pairs.goals, res, planner, budget)
     return {**pool_seeds([fid]), "fidelity_twin": TWIN,
@@ -329,9 +382,10 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--arena {args.arena} cannot be combined with --map (the map sets "
                          f"the arena)")
     cml, record = load_model(args.model)
-    dims, moves = _model_world(cml, record, args.model)
+    dims, moves, sensors = _model_world(cml, record, args.model)
     grid, _ = _load_map_args(args, dims, moves)
-    arena = grid if grid is not None else _eval_arena(args, record, dims, moves)
+    arena = (grid if grid is not None else _eval_arena(args, record, dims, moves)
+             ).sensing(sensors)
     limits.recheck(args, arena=arena.size, dims=dims)
     axes = "X Y Z"[: 2 * dims - 1]
     for name, pos in (("start", args.start), ("goal", args.goal)):
@@ -360,7 +414,7 @@ def cmd_navigate(args: argparse.Namespace) -> dict[str, Any]:
            "e_pos": float(np.linalg.norm(final - goals[0])),
            "chebyshev": int(pairs.chebyshev[0]), "geodesic": int(pairs.geodesic[0]),
            "planner": args.planner, "compute_path": path, "trajectory": trajectory.tolist(),
-           **_in_space(dims, moves)}
+           **_in_space(dims, moves, sensors)}
     out["path"] = out["trajectory"]  # the older name of the trajectory
     if args.plot:
         from cml_edge.grid.plots import plot_navigation
@@ -409,7 +463,13 @@ def cmd_emulate(args: argparse.Namespace) -> dict[str, Any]:
         # a chip's curve has one point, at the end of training
         return _emulate_chips(args, replace(protocol, epoch=config.walks), chips)
     warm_up(protocol_units(protocol))
-    result = run_protocol(protocol, progress=Progress(f"emulate {args.backend}"))
+    records: list[dict[str, Any]] = []
+    result = run_protocol(protocol, progress=Progress(f"emulate {args.backend}"),
+                          records=records)
+    if records:  # the run's hardware budget, from its seeds' own counters
+        from cml_edge.costs.budget import protocol_costs
+
+        result["costs"] = protocol_costs(protocol, records, result["curve_e_pos_mean"])
     result["command"] = command_line()
     result["cml_edge_version"] = __version__
     if args.out:

@@ -125,7 +125,8 @@ def estimate(args: Any) -> Estimate:
     (side^``dims`` cells) and ``devices`` it has (a missing size counts 1, or its default;
     a scenario or sweep trains the paper's 100 walks x 900 steps a model)."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
-    if getattr(args, "robot_command", None) == "navigate":  # goals one after another
+    if "navigate" in (getattr(args, "robot_command", None),  # goals one after another
+                      getattr(args, "drone_command", None)):
         args = SimpleNamespace(**{**vars(args), "trials": _get(args, "goals")})
     models = seeds * chips
     step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(usable_cores())

@@ -242,10 +242,12 @@ def saturation(counters: dict[str, int] | None) -> str | None:
 
 def arena_text(side: Any, r: dict[str, Any]) -> str:
     """"30 x 30 arena", or "12 x 12 x 12 arena, face moves" for a result off the plane's
-    king moves (its ``dims`` and ``moves``)."""
+    king moves (its ``dims`` and ``moves``), ", 8 range sensors" for one with sensors."""
     dims, moves = r.get("dims", 2), r.get("moves", "king")
     text = " x ".join([str(side)] * dims) + " arena"
-    return text + (f", {moves} moves" if moves != "king" else "")
+    sensors = r.get("sensors")
+    return (text + (f", {moves} moves" if moves != "king" else "")
+            + (f", {sensors['k']} range sensors" if sensors else ""))
 
 
 def show_protocol(r: dict[str, Any], command: str = "emulate") -> None:
@@ -271,8 +273,25 @@ def show_protocol(r: dict[str, Any], command: str = "emulate") -> None:
             *beyond_rows(r), ("success rate", _success(r)), ("path overhead", _overhead(r)),
             *fidelity_rows(r, ctx), ("saturation", saturation(r.get("counters"))),
             *(reference_rows(r, ctx) if command == "emulate" else []),
+            *cost_rows(r.get("costs")),
             ("time", secs(r["wall_time_s"]) if "wall_time_s" in r else None)]
     print("\n".join([head, *labelled(rows)]))
+
+
+def cost_rows(costs: dict[str, Any] | None) -> list[tuple[str, str | None]]:
+    """``emulate``'s hardware budget (:mod:`cml_edge.costs.budget`), one line each: memory,
+    traffic, energy and convergence (n/a where the device names no sourced figure)."""
+    if not costs:
+        return []
+    return [("parameters", f"{costs['parameters']:,} ({human(costs['parameter_bytes'], 'B')} "
+                           f"at {costs['weight_bits']} bits)"),
+            ("training memory", human(costs["train_bytes_direct"], "B")),
+            ("update traffic", f"{human(costs['update_bytes_per_run_direct'], 'B')} a training "
+                               "run" + ("" if costs["device_pulses_per_run"] is None else
+                                        f", {human(costs['device_pulses_per_run'], 'pulses')}")),
+            ("energy", f"{human(costs['energy_per_run_uj'], 'uJ')} a training run, "
+                       f"{human(costs['energy_per_action_nj'], 'nJ')} an action"),
+            ("steps to converge", human(costs["steps_to_converge"]))]
 
 
 def show_evaluate(r: dict[str, Any]) -> None:

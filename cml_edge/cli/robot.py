@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -75,22 +75,53 @@ def _add_planning(p: argparse.ArgumentParser) -> None:
                    help="check the model's observation (it is fixed at training)")
     p.add_argument("--goal-heading", choices=GOAL_HEADINGS, default=None,
                    help="heading of o* (default: the model's, bearing unless trained otherwise)")
+    add_drive_options(p, "circle", "32 ms", GOAL_RADIUS)
+    p.add_argument("--base", type=finite_float, nargs=3, metavar=("X", "Y", "THETA"),
+                   default=list(BASE_POSE), help="start pose (default 2 2 pi/4)")
+    add_run_options(p)
+
+
+def add_drive_options(p: argparse.ArgumentParser, shape: str, step: str,
+                      radius: float) -> None:
+    """The planning options the robot and the drone share: the utility, the stop check (of
+    the goal ``shape``, every simulation ``step``), the budget and the goal ``radius``."""
     p.add_argument("--utility", choices=UTILITIES, default=None,
                    help="planning utility (default: the model's)")
     p.add_argument("--stop", choices=STOPS, default="action",
-                   help="check the goal circle after each action (the default) or at every "
-                        "32 ms simulation step")
+                   help=f"check the goal {shape} after each action (the default) or at every "
+                        f"{step} simulation step")
     p.add_argument("--max-actions", type=positive_int, default=MAX_ACTIONS,
                    help=f"action budget ({MAX_ACTIONS})")
-    p.add_argument("--radius", type=positive_float, default=GOAL_RADIUS,
-                   help=f"goal radius in m ({GOAL_RADIUS})")
-    p.add_argument("--base", type=finite_float, nargs=3, metavar=("X", "Y", "THETA"),
-                   default=list(BASE_POSE), help="start pose (default 2 2 pi/4)")
+    p.add_argument("--radius", type=positive_float, default=radius,
+                   help=f"goal radius in m ({radius})")
+
+
+def add_run_options(p: argparse.ArgumentParser) -> None:
+    """The goals' seed, the compute path and ``--json``, for the robot and the drone."""
     p.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
                    help=f"seed of the random goals ({EVAL_SEED})")
     p.add_argument("--path", choices=PATHS, default="direct",
                    help="compiled loop (direct) or plain-Python reference")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def add_training_options(t: argparse.ArgumentParser) -> None:
+    """The ``train`` options the robot and the drone share: the walks, the device, the
+    seeds, the compute path and the output."""
+    t.add_argument("--walks", type=positive_int, default=RobotTrainConfig.walks,
+                   help=f"exploration walks ({RobotTrainConfig.walks})")
+    t.add_argument("--steps", type=positive_int, default=RobotTrainConfig.steps,
+                   help=f"actions per walk ({RobotTrainConfig.steps})")
+    t.add_argument("--schedule", choices=SCHEDULES, default="walk",
+                   help="updates applied at the end of each walk (walk) or at once (step)")
+    add_backend(t)
+    t.add_argument("--seed", type=nonneg_int, default=0, help="first model seed (0)")
+    t.add_argument("--seeds", type=positive_int, default=1,
+                   help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
+    t.add_argument("--path", choices=PATHS, default="direct",
+                   help="compiled loop (direct) or plain-Python reference")
+    t.add_argument("--out", required=True, help="model file to write (.npz)")
+    t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
 def add_parsers(subparsers) -> None:
@@ -110,20 +141,7 @@ def add_parsers(subparsers) -> None:
                    help="weight h of the heading components (default 1/30, as positions)")
     t.add_argument("--utility", choices=UTILITIES, default="raw",
                    help="planning utility stored with the model (raw)")
-    t.add_argument("--walks", type=positive_int, default=RobotTrainConfig.walks,
-                   help=f"exploration walks ({RobotTrainConfig.walks})")
-    t.add_argument("--steps", type=positive_int, default=RobotTrainConfig.steps,
-                   help=f"actions per walk ({RobotTrainConfig.steps})")
-    t.add_argument("--schedule", choices=SCHEDULES, default="walk",
-                   help="updates applied at the end of each walk (walk) or at once (step)")
-    add_backend(t)
-    t.add_argument("--seed", type=nonneg_int, default=0, help="first model seed (0)")
-    t.add_argument("--seeds", type=positive_int, default=1,
-                   help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
-    t.add_argument("--path", choices=PATHS, default="direct",
-                   help="compiled loop (direct) or plain-Python reference")
-    t.add_argument("--out", required=True, help="model file to write (.npz)")
-    t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    add_training_options(t)
     t.set_defaults(show=show_robot_train)
 
     e = sub.add_parser("evaluate", help="drive to random goals from the base; the issue's "
@@ -198,26 +216,14 @@ def _cmd_train(args: argparse.Namespace) -> dict[str, Any]:
 def _load_for_planning(args: argparse.Namespace):
     if getattr(args, "plot", None):
         writable_file(args.plot, "--plot")
-    files = args.model if isinstance(args.model, list) else [args.model]
-    cmls, meta = load_robot_models(files[0])
-    for other in files[1:]:
-        more, m = load_robot_models(other)
-        for key in ("settings", "robot", "sim", "mujoco", "config", "backend"):
-            if m.get(key) != meta.get(key):
-                raise InputError(f"{other} differs from {files[0]} in its {key}; only models "
-                                 f"trained alike are pooled")
-        cmls += more
-        meta["training"] = {**meta["training"], "seeds": meta["training"].get("seeds", []) +
-                            m["training"].get("seeds", [])}
+    cmls, meta = load_pooled(args.model, load_robot_models, "robot")
     settings = RobotCMLSettings.from_dict(meta["settings"])
     if args.observation is not None and args.observation != settings.observation:
         raise InputError(f"--observation {args.observation}: the model was trained with the "
                          f"{settings.observation} observation")
     if args.goal_heading is not None:
         settings = RobotCMLSettings(**{**settings.to_dict(), "goal_heading": args.goal_heading})
-    if args.utility is not None:
-        for cml in cmls:
-            cml.config = CMLConfig(**{**cml.config.to_dict(), "utility": args.utility})
+    set_utility(cmls, args.utility)
     robot = RobotConfig.from_dict(meta["robot"])
     sim_name = args.sim or meta["sim"]
     sim = _make_sim(sim_name, robot, args, meta.get("mujoco") if meta["sim"] == "mujoco" else None)
@@ -242,31 +248,66 @@ def _planning_record(args, meta, settings, cmls, sim_name, base) -> dict[str, An
 
 def _cmd_evaluate(args: argparse.Namespace) -> dict[str, Any]:
     cmls, meta, settings, robot, sim, sim_name, base = _load_for_planning(args)
+    cmls, result = evaluate_pooled(args, cmls, meta, sim, settings,
+                                   lambda: draw_goals(robot, args.trials, args.eval_seed), base,
+                                   make_sim("kinematic", robot), f"robot evaluate ({sim_name})")
+    return {**_planning_record(args, meta, settings, cmls, sim_name, base), **result}
+
+
+# what the robot's and the drone's commands share ----------------------------------------
+def load_pooled(model, load, world: str) -> tuple[list, dict[str, Any]]:
+    """The models of one or several files (``model``: a path or a list) read by ``load``,
+    pooled: files that differ in how they were trained are refused."""
+    files = model if isinstance(model, list) else [model]
+    cmls, meta = load(files[0])
+    for other in files[1:]:
+        more, m = load(other)
+        for key in ("settings", world, "sim", "mujoco", "config", "backend"):
+            if m.get(key) != meta.get(key):
+                raise InputError(f"{other} differs from {files[0]} in its {key}; only models "
+                                 f"trained alike are pooled")
+        cmls += more
+        meta["training"] = {**meta["training"], "seeds": meta["training"].get("seeds", []) +
+                            m["training"].get("seeds", [])}
+    return cmls, meta
+
+
+def set_utility(cmls: list, utility: str | None) -> None:
+    """Plan with ``utility`` instead of the models' own (None: keep theirs)."""
+    if utility is not None:
+        for cml in cmls:
+            cml.config = CMLConfig(**{**cml.config.to_dict(), "utility": utility})
+
+
+def evaluate_pooled(args: argparse.Namespace, cmls: list, meta: dict[str, Any], sim, settings,
+                    draw: Callable[[], np.ndarray], start, kinematic, label: str
+                    ) -> tuple[list, dict[str, Any]]:
+    """``evaluate``'s work for a vehicle: the first ``--seeds`` models, their float64 twins
+    retrained on ``kinematic`` (the vehicle's kinematic simulator), every model driven from
+    ``start`` to the goals ``draw`` draws (once the options are checked); the models used
+    and the result with ``seed_list``."""
     if args.seeds is not None:
         if args.seeds > len(cmls):
             raise InputError(f"--seeds {args.seeds}: the model file holds {len(cmls)} models")
         cmls = cmls[: args.seeds]
-    goals = draw_goals(robot, args.trials, args.eval_seed)
+    goals = draw()
     seeds = meta["training"].get("seeds", list(range(len(cmls))))[: len(cmls)]
     with stage("twin"):
-        twins, why = _twins(meta, settings, robot, cmls, seeds)
+        twins, why = _twins(meta, settings, kinematic, cmls, seeds)
     with stage("evaluate"):  # with the replays against the twins
-        result = evaluate_models(cmls, sim, settings, goals, base, args.max_actions,
-                                 args.radius, args.stop, args.path,
-                                 Progress(f"robot evaluate ({sim_name})"), twins)
+        result = evaluate_models(cmls, sim, settings, goals, start, args.max_actions,
+                                 args.radius, args.stop, args.path, Progress(label), twins)
     if twins is None:
         result.update({"weight_error": None, "decision_agreement": None, "read_snr": None,
                        "fidelity_twin": f"unavailable: {why}"})
     for entry, seed in zip(result["per_seed"], seeds):
         entry["seed"] = seed
-    return {**_planning_record(args, meta, settings, cmls, sim_name, base), **result,
-            "seed_list": seeds}
+    return cmls, {**result, "seed_list": seeds}
 
 
-def _twins(meta: dict[str, Any], settings: RobotCMLSettings, robot: RobotConfig, cmls: list,
-           seeds: list[int]):
+def _twins(meta: dict[str, Any], settings, sim, cmls: list, seeds: list[int]):
     """((seed, float64 twin) per model, retrained from the file's training record on the
-    kinematic simulator, :mod:`cml_edge.robot.fidelity`), or (None, why not)."""
+    kinematic simulator ``sim``, :mod:`cml_edge.robot.fidelity`), or (None, why not)."""
     from cml_edge.robot.fidelity import robot_twin
 
     training = meta["training"]
@@ -276,7 +317,6 @@ def _twins(meta: dict[str, Any], settings: RobotCMLSettings, robot: RobotConfig,
     if any(k not in training for k in ("walks", "steps", "schedule", "seeds")):
         return None, "the model file does not record its training"
     config = RobotTrainConfig(training["walks"], training["steps"], training["schedule"])
-    sim = make_sim("kinematic", robot)
     return [(seed, robot_twin(seed, sim, settings, config, cml.config))
             for seed, cml in zip(seeds, cmls)], ""
 

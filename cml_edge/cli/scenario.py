@@ -20,9 +20,10 @@ from cml_edge.cli.args import (
 from cml_edge.cli.output import device_label, labelled, num, pct, plural, table
 from cml_edge.core.finite import dumps
 from cml_edge.engine.timings import stage
+from cml_edge.grid.arena import DIMS, MOVE_SETS
 from cml_edge.io.files import atomic_write_text, writable_file, writable_folder
 from cml_edge.scenarios.breakpoint import MIN_SEEDS, find_breakpoint, knob_names
-from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
+from cml_edge.scenarios.registry import BUDGETS, SCENARIOS, get
 from cml_edge.scenarios.runner import run_scenario
 
 
@@ -39,6 +40,13 @@ def _add_common(p: argparse.ArgumentParser, seeds: int) -> None:
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on this Dask distributed scheduler (tcp://host:8786)")
+    p.add_argument("--dims", type=int, choices=DIMS, default=None,
+                   help="2: the grid's N x N plane; 3: its N x N x N volume (the scenario's "
+                        "3-D form: the empty 30^3 volume, 9,000 and 12,000 obstacles, the "
+                        "shipped voxel maps, a 60^3 volume); default: the scenario's own (2)")
+    p.add_argument("--moves", choices=MOVE_SETS, default="king",
+                   help="the grid's moves: king, every neighbour (8 on the plane, 26 in "
+                        "space); face, the axis neighbours only (4, 6) (default king)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
 
 
@@ -101,11 +109,12 @@ def cmd_scenario(args: argparse.Namespace) -> dict[str, Any]:
     chips = chip_flags(args)  # checked now, before any task
     on_chips = {} if chips is None else {"chips": chips["n"], "first_chip": chips["first"],
                                          "yield_target": chips["yield_target"]}
+    get(args.name).space(args.dims, args.moves)  # before any work
     _outputs(args)
     result = run_scenario(args.name, args.backend, backend_options(args), args.seeds,
                           _budget(args), args.out, args.workers, args.scheduler,
                           Progress(f"scenario {args.name}"), command=command_line(),
-                          restart=args.restart, **on_chips)
+                          restart=args.restart, dims=args.dims, moves=args.moves, **on_chips)
     return result
 
 
@@ -127,7 +136,7 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
                              args.target, args.seeds, tuple(args.range) if args.range else None,
                              _budget(args), args.part, args.out, args.workers, args.scheduler,
                              command_line(), args.restart,
-                             on_start=_say_before_runs)
+                             on_start=_say_before_runs, dims=args.dims, moves=args.moves)
     if args.out is not None:
         with stage("write"):
             atomic_write_text(f"{args.out}/breakpoint.json", dumps(result, indent=1))
@@ -135,6 +144,11 @@ def cmd_breakpoint(args: argparse.Namespace) -> dict[str, Any]:
 
 
 # what a person reads (--json: the result) ----------------------------------------
+def _world(r: dict[str, Any]) -> str:
+    """`` (3-D, king moves)`` off the plane's king moves; nothing on it."""
+    return f" ({r['dims']}-D, {r['moves']} moves)" if "dims" in r else ""
+
+
 def show_scenario(r: dict[str, Any]) -> None:
     """``scenario``: its parts as a table (success, overhead, the fidelity means, pulses
     and energy where the device counts them), and the yield over chips."""
@@ -146,7 +160,7 @@ def show_scenario(r: dict[str, Any]) -> None:
              **({"pulses": p["pulses"]["mean"], "energy uJ": p["energy_uJ"]["mean"]}
                 if "pulses" in p else {})} for p in r["parts"]]
     chips = f" x {plural(len(r['chip_seeds']), 'chip')}" if "chip_seeds" in r else ""
-    print(f"{r['scenario']} on {device_label(r['backend'], r['backend_options'])}: "
+    print(f"{r['scenario']}{_world(r)} on {device_label(r['backend'], r['backend_options'])}: "
           f"{plural(r['seeds'], 'seed')}{chips}, {r['budget']} budget")
     print(markdown_table(rows, tuple(rows[0])))
     for p in r["parts"]:
@@ -160,7 +174,7 @@ def show_scenario(r: dict[str, Any]) -> None:
 def show_breakpoint(r: dict[str, Any]) -> None:
     """``breakpoint``: the knob value found, its bracket, and each value evaluated."""
     part = r["part"] or "the worst part"
-    print(f"breakpoint: {r['knob']} ({r['field']}) on {r['scenario']}, "
+    print(f"breakpoint: {r['knob']} ({r['field']}) on {r['scenario']}{_world(r)}, "
           f"{device_label(r['backend'], r['backend_options'])}; {plural(r['seeds'], 'seed')}, "
           f"{r['budget']} budget")
     if r.get("found", True):

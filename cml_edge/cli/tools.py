@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import sys
 import time
@@ -17,6 +18,7 @@ from cml_edge.cli.args import Progress, command_line, positive_int, say_estimate
 from cml_edge.cli.output import labelled, num, plural, secs, table
 from cml_edge.errors import InputError
 from cml_edge.experiments import EXPERIMENTS
+from cml_edge.grid.arena import DIMS, MOVE_SETS
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.io.files import writable_folder
 from cml_edge.robot.sim import SIMS
@@ -42,6 +44,15 @@ def add_parsers(sub) -> None:
                    help="a MovingAI .map file (or shipped map name): maps and exploration "
                         "experiments")
     p.add_argument("--scen", default=None, metavar="FILE", help="its .scen file")
+    p.add_argument("--dims", type=int, choices=DIMS, default=2,
+                   help="2: the paper's N x N plane; 3: the N x N x N volume (the experiments "
+                        "on empty arenas and obstacles; not the plane's maps) (default 2)")
+    p.add_argument("--moves", choices=MOVE_SETS, default="king",
+                   help="king: every neighbour (8 on the plane, 26 in space); face: the axis "
+                        "neighbours only (4, 6) (default king)")
+    p.add_argument("--backends", nargs="+", default=None, metavar="NAME",
+                   help="only these devices (backend or backend:preset names): the sensors "
+                        "experiment (default: every registered device)")
     p.add_argument("--restart", action="store_true",
                    help="start the run in --out over (a run folder of other settings is "
                         "refused without it)")
@@ -91,6 +102,11 @@ def add_parsers(sub) -> None:
                         "crossbar:pcm --set out_noise=0: the preset without its read noise); "
                         "float64, the ratios' denominator, is timed as it is")
     p.add_argument("--repeats", type=positive_int, default=5, help="timed repeats (5)")
+    p.add_argument("--dims", type=int, choices=DIMS, default=2,
+                   help="3: also time each backend's direct path in the 30 x 30 x 30 volume "
+                        "and its training step per synapse against the plane's (default 2)")
+    p.add_argument("--moves", choices=MOVE_SETS, default="king",
+                   help="the volume's moves with --dims 3: king (26) or face (6) (king)")
     p.add_argument("--robot", nargs="+", choices=SIMS, default=None, metavar="SIM",
                    help="also time the wheeled robot on these simulators (kinematic, mujoco)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -189,7 +205,7 @@ def cmd_bench(args: argparse.Namespace) -> dict[str, Any]:
 
     names = bench_names(args.backends or sorted(BACKENDS), args.presets)
     result = run_bench(names, repeats=args.repeats, progress=Progress("bench"),
-                       settings=args.settings)
+                       settings=args.settings, dims=args.dims, moves=args.moves)
     if args.robot:
         from cml_edge.bench.timing import bench_robot
 
@@ -203,6 +219,15 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
     from cml_edge.experiments.common import run_experiment
 
     module = experiments.get(args.experiment)
+    space = {} if (args.dims, args.moves) == (2, "king") else {"dims": args.dims,
+                                                                "moves": args.moves}
+    if space:
+        from cml_edge.experiments.common import space_tasks
+
+        space_tasks(module, [], **space)  # an experiment of the plane only fails now
+        if args.map:
+            raise InputError(f"--map with --dims {args.dims}: the experiments' maps are "
+                             "MovingAI plane maps (voxel maps: cml-edge emulate --dims 3 --map)")
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
     writable_folder(args.out, "--out")
@@ -214,10 +239,16 @@ def cmd_sweep(args: argparse.Namespace) -> dict[str, Any]:
         grid = load_map(resolve_map(args.map))
         problems = {"trials": len(load_scen(args.scen))} if args.scen else {}
         limits.recheck(args, arena=grid.side, **problems)
+    devices = {}
+    if args.backends is not None:
+        if "backends" not in inspect.signature(module.tasks).parameters:
+            raise InputError(f"experiment {args.experiment!r} does not take --backends")
+        configurations(args.backends)  # an unknown name fails now, before any task runs
+        devices = {"backends": args.backends}
     summary = run_experiment(module, args.out, workers=args.workers, scheduler=args.scheduler,
                              progress=Progress(f"sweep {args.experiment}"), seeds=args.seeds,
                              planner=args.planner, map=args.map, scen=args.scen,
-                             restart=args.restart)
+                             restart=args.restart, **devices, **space)
     summary["command"] = command_line()
     return summary
 
@@ -257,6 +288,17 @@ def show_bench(r: dict[str, Any]) -> None:
     for sim, f in (r.get("robot") or {}).items():
         print(f"  robot on {sim}: {num(f['train_actions_per_s'])} training and "
               f"{num(f['plan_actions_per_s'])} planning actions/s")
+    if "space" in r:
+        space = r["space"]
+        rows = [[name, num(f["train_step_us_random"]), num(f["plan_step_us"]),
+                 num(f["train_step_ns_per_synapse_2d"]), num(f["train_step_ns_per_synapse_3d"]),
+                 num(f["ratio"]),
+                 f"<= {f['goal']:g} {'met' if f['ratio'] <= f['goal'] else 'missed'}"]
+                for name, f in space["backends"].items()]
+        print(f"  in {space['dims']}-D ({space['moves']} moves), 30 x 30 x 30: CPU us per step, "
+              "and the training step per synapse (ns) against the plane's")
+        print("\n".join("  " + line for line in table(rows, [
+            "backend", "train", "plan", "ns/syn 2-D", "ns/syn 3-D", "3-D / 2-D", "goal"])))
 
 
 def show_report(r: dict[str, Any]) -> None:

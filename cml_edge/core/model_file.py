@@ -98,7 +98,8 @@ def save_model(path: str | Path, cml: CML, training: dict[str, Any]) -> None:
 def load_model(path: str | Path) -> tuple[CML, dict[str, Any]]:
     """Load and validate a model file; returns the CML and its training record."""
     data = read_npz(path, FORMAT, FORMAT_VERSION, ModelFileError,
-                    {"cml-edge-robot-model": " (a robot model: use cml-edge robot evaluate)"})
+                    {"cml-edge-robot-model": " (a robot model: use cml-edge robot evaluate)",
+                     "cml-edge-drone-model": " (a drone model: use cml-edge drone evaluate)"})
     try:
         meta = json.loads(str(data["meta"]))
         if not isinstance(meta, dict):

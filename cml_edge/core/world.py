@@ -34,7 +34,8 @@ PATH = "direct"
 """The compute path of a world's runs: the arrays count every operation there, as in
 ``cml-edge emulate``."""
 
-WORLDS = {"grid": "cml_edge.grid.world:GRID", "robot": "cml_edge.robot.world:ROBOT"}
+WORLDS = {"grid": "cml_edge.grid.world:GRID", "robot": "cml_edge.robot.world:ROBOT",
+          "drone": "cml_edge.drone.world:DRONE"}
 """World name -> ``module:object`` of its :class:`World` (imported when first asked)."""
 
 

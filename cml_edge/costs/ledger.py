@@ -108,13 +108,14 @@ def factored_accumulators(cml: CML) -> int:
     return c.n_a * c.n_i + c.n_i * c.n_a + c.n_a + c.n_i * c.n_i + c.n_a * c.n_i
 
 
-def cml_memory(cml: CML, explore: str, arena: int) -> dict[str, Any]:
-    """Parameter bytes and the memory needed to train, per schedule (bytes)."""
+def cml_memory(cml: CML, explore: str, arena: int, dims: int = 2) -> dict[str, Any]:
+    """Parameter bytes and the memory needed to train, per schedule (bytes), on the
+    arena of side ``arena`` in ``dims`` dimensions."""
     params = cml.parameter_count()
     wbits = cml.W_q.weight_bits()
     abits = cml.W_q.accumulator_bits()
     weights = params * wbits / 8
-    visited = arena * arena / 8 if explore == "mixed" else 0.0  # one bit per cell (Eq. 4)
+    visited = arena ** dims / 8 if explore == "mixed" else 0.0  # one bit per cell (Eq. 4)
     return {
         "weight_bits": wbits,
         "parameter_bytes": weights,

@@ -1,4 +1,4 @@
-"""The paper's experiments as commands (``cml-edge sweep NAME``), plus four past it.
+"""The paper's experiments as commands (``cml-edge sweep NAME``), plus five past it.
 
 One readable module per experiment; each lists its (configuration x seed) tasks for
 the sweep engine (:mod:`cml_edge.engine.sweep`) and writes ``results.json``, ``results.csv``
@@ -13,7 +13,7 @@ from types import ModuleType
 from cml_edge.errors import InputError
 
 EXPERIMENTS = ("convergence", "hyperparams", "exploration", "generalization", "obstacles",
-               "maps", "backends", "choices", "levels")
+               "maps", "backends", "choices", "levels", "sensors")
 
 
 def get(name: str) -> ModuleType:

@@ -28,6 +28,8 @@ from cml_edge.io.figures import save_png
 
 NAME = "backends"
 CLAIM = "(not in the paper) the same protocol on every emulated synaptic array"
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep backends --dims 3``: the N x N x N volume)."""
 COLUMNS = ("config", "eval", "success_rate", "success_rate_connected", "e_pos_mean",
            "overhead_mean", "overhead_geodesic_mean")
 

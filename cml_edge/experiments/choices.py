@@ -27,6 +27,8 @@ from cml_edge.io.figures import save_png
 NAME = "choices"
 CLAIM = ("(not in the paper) each choice it leaves open, against its alternative: the "
          "centred frame, W_q ~ N(0, 1/256) and the normalised utility reach every goal")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep choices --dims 3``: the N x N x N volume)."""
 COLUMNS = ("variant", "explore", "success_rate", "e_pos_mean", "overhead_mean",
            "overhead_median")
 VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {

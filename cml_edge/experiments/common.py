@@ -12,6 +12,12 @@ An experiment module defines ``NAME``, ``CLAIM`` (the paper's qualitative claim 
 checks), ``tasks(**options) -> list[Task]``, ``rows(results) -> list[dict]`` (usually
 :func:`summary_rows`) and ``plot(rows, results, path)``; :func:`run_experiment` does the
 rest (sweep, ``results.json``, ``results.csv``, ``figure.png``).
+
+In space (``cml-edge sweep NAME --dims 3``, ``--moves face``): a module whose ``DIMS``
+holds 3 runs its tasks in the N x N x N volume (every task trains in the cube of its arena
+side and evaluates its conditions there; :func:`space_tasks`); one without (the MovingAI
+plane maps') is refused before any work. The plane's king moves leave every task, key and
+result as it was.
 """
 
 from __future__ import annotations
@@ -24,21 +30,22 @@ from typing import Any
 
 import numpy as np
 
-from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.engine.sweep import Task, run_sweep
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena
+from cml_edge.grid.arena import DIMS, MOVE_SETS, GridArena
 from cml_edge.grid.condition import Condition
 from cml_edge.grid.metrics import draw_pairs, pool_records
-from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
+from cml_edge.grid.seed_run import Evaluation, Training, cml_config_for, train_and_evaluate
+from cml_edge.grid.sensors import Sensors
 from cml_edge.grid.training import TrainConfig
 from cml_edge.io.figures import pyplot
 from cml_edge.io.files import atomic_write_text
 from cml_edge.protocol import EVAL_SEED
 
 TASK_FN = "cml_edge.experiments.common:train_eval"
+PLANE = (2, "king")
 DEFAULT_SEEDS = 10
 OUT_ROOT = Path("runs") / "experiments"
 METRICS = ("success_rate", "success_rate_connected", "e_pos_mean", "e_pos_median",
@@ -61,20 +68,29 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
                backend_options: dict[str, Any] | None = None, path: str | None = None,
                epoch: int = 10, curve: bool = False, curve_trials: int = 100,
                eval_seed: int = EVAL_SEED,
-               cml_options: dict[str, Any] | None = None) -> dict[str, Any]:
+               cml_options: dict[str, Any] | None = None,
+               sensors: dict[str, Any] | None = None, dims: int = 2,
+               moves: str = "king") -> dict[str, Any]:
     """The task of every experiment: train model ``seed``, then run each of ``evals``
     (:func:`cml_edge.grid.seed_run.train_and_evaluate`; ``path`` None: its default).
     ``cml_options``: fields of the CML's config that differ from the defaults
-    (:meth:`cml_edge.core.cml.CMLConfig.for_arena`).
+    (:meth:`cml_edge.core.cml.CMLConfig.for_arena`). ``sensors``: range sensors
+    (:class:`~cml_edge.grid.sensors.Sensors` as JSON), read in training, on its arena
+    with obstacles, and in every evaluation; None: the paper's empty training arena.
+    ``dims`` and ``moves``: the arena's dimensions and move set (the result then says
+    them, off the plane's king moves).
 
     With ``curve``, the model is evaluated on the empty training arena every ``epoch``
     walks (the paper's Figure 4B / 5 curves: e_pos mean, success, overhead mean).
     """
-    train_arena = GridArena.empty(arena)
+    sensed = Sensors.from_dict(sensors) if sensors is not None else None
+    train_arena = (GridArena.sensed(sensed, arena) if sensed
+                   else GridArena.empty(arena, dims, moves))
     training = Training(train_arena, TrainConfig(walks, steps, explore),
-                        CMLConfig.for_arena(arena, **(cml_options or {})), backend,
+                        cml_config_for(train_arena, **(cml_options or {})), backend,
                         backend_options or {}, path, epoch)
-    evaluations = [Condition.from_dict(spec).evaluation(arena) for spec in evals]
+    evaluations = [Condition.from_dict(spec).evaluation(arena, dims, moves, sensors=sensed)
+                   for spec in evals]
     curve_eval = (Evaluation(train_arena, draw_pairs(train_arena, curve_trials, eval_seed))
                   if curve else None)
     run = train_and_evaluate(seed, training, evaluations, curve=curve_eval)
@@ -90,8 +106,10 @@ def train_eval(seed: int, evals: list[dict[str, Any]], arena: int = 30, walks: i
                           "starts": pairs.starts.tolist(), "goals": pairs.goals.tolist(),
                           "chebyshev": pairs.chebyshev.tolist(),
                           "geodesic": pairs.geodesic.tolist()})
+    space = {} if (dims, moves) == PLANE else {"dims": dims, "moves": moves}
     return {"seed": int(seed), "backend": backend, "path": run.path,
-            "train_error": run.train_error.tolist(), "curve": points, "evals": out_evals}
+            "train_error": run.train_error.tolist(), "curve": points, "evals": out_evals,
+            **space}
 
 
 def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Task]:
@@ -100,6 +118,22 @@ def make_tasks(configs: list[tuple[str, dict[str, Any]]], seeds: int) -> list[Ta
         raise InputError(f"seeds {seeds!r} is not an integer >= 1")
     return [Task(f"{cid}-s{seed}", TASK_FN, {**params, "seed": seed})
             for cid, params in configs for seed in range(seeds)]
+
+
+def space_tasks(module: Any, tasks: list[Task], dims: int = 2,
+                moves: str = "king") -> list[Task]:
+    """``tasks`` of experiment ``module`` in ``dims`` dimensions with the ``moves`` set
+    (module docstring); InputError for a module whose ``DIMS`` does not hold ``dims``."""
+    if dims not in DIMS:
+        raise InputError(f"dims {dims!r} is not allowed (allowed: 2, 3)")
+    if moves not in MOVE_SETS:
+        raise InputError(f"unknown moves {moves!r}; allowed: {', '.join(MOVE_SETS)}")
+    if dims not in getattr(module, "DIMS", (2,)):
+        raise InputError(f"experiment {module.NAME!r} runs on the plane only, not in "
+                         f"{dims}-D{getattr(module, 'PLANE_ONLY', '')}")
+    if (dims, moves) == PLANE:
+        return tasks
+    return [Task(t.key, t.fn, {**t.params, "dims": dims, "moves": moves}) for t in tasks]
 
 
 def reject(name: str, **given: Any) -> None:
@@ -183,7 +217,10 @@ def run_experiment(module: Any, out: str | Path | None = None, workers: int | No
     ``out`` is a run folder of the experiment and its options but the seeds
     (:mod:`cml_edge.engine.runs`; ``restart`` starts it over)."""
     out = Path(out) if out else OUT_ROOT / module.NAME
-    tasks = module.tasks(**options)
+    space = {k: options.pop(k) for k in ("dims", "moves") if k in options}
+    tasks = space_tasks(module, module.tasks(**options), **space)
+    if (space.get("dims", 2), space.get("moves", "king")) != PLANE:
+        options.update(space)  # the run folder's settings and the summary say them
     settings = {"run": "experiment", "experiment": module.NAME,
                 **{k: v for k, v in options.items() if k != "seeds"}}
     results = run_sweep(tasks, out, workers=workers, scheduler=scheduler, progress=progress,

@@ -29,6 +29,8 @@ from cml_edge.io.figures import save_png
 NAME = "convergence"
 CLAIM = ("training error keeps decreasing after 90 K steps; the planning error e_pos "
          "converges after about 20 K steps (Figure 4B)")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep convergence --dims 3``: the N x N x N volume)."""
 COLUMNS = ("explore", "e_pos_at_9k", "e_pos_at_18k", "e_pos_at_27k", "e_pos_at_45k",
            "e_pos_mean", "success_rate", "train_error_first", "train_error_last")
 EPOCH = 2

@@ -32,6 +32,8 @@ from cml_edge.io.figures import save_png
 TRAININGS = {"paper": (100, 900), "short": (100, 100)}
 NAME = "exploration"
 CLAIM = "mixed exploration shortens the paths (lower overhead) at similar e_pos (Figure 6)"
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep exploration --dims 3``: the N x N x N volume)."""
 COLUMNS = ("walks", "steps", "explore", "eval", "success_rate", "e_pos_mean", "e_pos_median",
            "overhead_mean", "overhead_median", "overhead_geodesic_mean")
 

@@ -32,6 +32,8 @@ from cml_edge.io.figures import save_png
 NAME = "generalization"
 CLAIM = ("models trained with mixed exploration generalise better to 60 x 60 and 120 x 120 "
          "(lower median e_pos and path overhead, Figure 7)")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep generalization --dims 3``: the N x N x N volume)."""
 COLUMNS = ("walks", "steps", "explore", "eval_arena", "max_steps", "success_rate",
            "e_pos_mean", "e_pos_median", "overhead_mean", "overhead_median")
 SIZES = (30, 60, 120)

@@ -28,6 +28,8 @@ from cml_edge.io.figures import save_png
 NAME = "hyperparams"
 CLAIM = ("more steps per walk or more walks do not monotonically lower e_pos or the "
          "overhead (300-step walks and 50 walks best; a sweet spot near 45 K steps, Figure 5)")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep hyperparams --dims 3``: the N x N x N volume)."""
 COLUMNS = ("walks", "steps", "train_steps", "success_rate", "e_pos_mean", "e_pos_median",
            "overhead_mean", "overhead_median")
 STEPS = (900, 600, 300, 100)

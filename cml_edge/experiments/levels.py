@@ -40,6 +40,8 @@ from cml_edge.io.figures import save_png
 NAME = "levels"
 CLAIM = ("(not in the paper) on the noise-free crossbar, success follows the number of "
          "conductance levels, within the spread over seeds")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep levels --dims 3``: the N x N x N volume)."""
 COLUMNS = ("series", "levels", "success_rate", "success_seed_std", "success_seed_min",
            "overhead_mean")
 LEVELS = (*range(16, 129), 256, 1024, 0)

@@ -31,6 +31,9 @@ from cml_edge.io.figures import save_png
 NAME = "maps"
 CLAIM = ("(past the paper) a purely greedy local planner fails most pairs that need a "
          "detour (rooms with doors, a U-trap); the escape planner reaches them")
+DIMS = (2,)
+PLANE_ONLY = (" (its maps are MovingAI plane maps; a voxel map in 3-D: cml-edge emulate --dims 3 "
+              "--map NAME, or cml-edge scenario maps --dims 3)")
 COLUMNS = ("map", "planner", "max_steps", "connected_pairs", "success_rate_connected",
            "e_pos_mean", "overhead_geodesic_mean")
 

@@ -33,6 +33,8 @@ from cml_edge.protocol import EVAL_SEED
 NAME = "obstacles"
 CLAIM = ("the paper's planner navigates 100-200 obstacles but degrades at 300-400, halting "
          "in front of obstacle clusters (Figure 8)")
+DIMS = (2, 3)
+"""The dimensions it runs in (``cml-edge sweep obstacles --dims 3``: the N x N x N volume)."""
 COLUMNS = ("planner", "obstacles", "connected_pairs", "success_rate", "success_rate_connected",
            "e_pos_mean", "overhead_geodesic_mean")
 OBSTACLES = (0, 100, 200, 300, 400)
@@ -70,7 +72,8 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     for ax in axes[:3]:
         ax.set_xlabel("point obstacles (30 x 30)")
         ax.legend(fontsize=8)
-    _example(axes[3])
+    if all(r.get("dims", 2) == 2 for r in results.values()):  # a path drawn on the plane
+        _example(axes[3])
     fig.suptitle(f"Obstacles placed at evaluation only, {rows_[0]['seeds']} seeds x 100 pairs "
                  "(cf. paper Fig. 8)", y=1.04)
     save_png(fig, path)

@@ -16,13 +16,16 @@ every axis, as the paper's section 2 states it on two.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import NamedTuple
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from cml_edge.errors import InputError
+
+if TYPE_CHECKING:
+    from cml_edge.grid.sensors import Sensors
 
 MOVES = np.array(
     [[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1]], dtype=np.int64
@@ -87,6 +90,10 @@ class Cells(NamedTuple):
     table: np.ndarray  # int64 (n_actions, dims): each action's displacement
     offsets: np.ndarray  # int64 (n_actions,): each action's change of the cell number
     n: int  # the side
+    readings: np.ndarray  # float64 (cells, K): each cell's range-sensor inputs
+    # (:mod:`cml_edge.grid.sensors`; K = 0 without sensors)
+    open_goal: float  # 1.0: the goal's sensor inputs are open space's (zero); 0.0: the
+    # agent's own (:data:`cml_edge.grid.sensors.GOALS`)
 
 
 @njit(cache=True, inline="always")
@@ -113,6 +120,14 @@ def observe(p, origin, scale, out):
     ``obs_scale``)."""
     for k in range(p.shape[0]):
         out[k] = (p[k] - origin) / scale
+
+
+@njit(cache=True, inline="always")
+def sense(cells, c, dims, out):
+    """The sensor inputs of cell ``c`` after the position in ``out`` (out[dims:]; nothing
+    without sensors): the observation of :mod:`cml_edge.grid.sensors`."""
+    for k in range(cells.readings.shape[1]):
+        out[dims + k] = cells.readings[c, k]
 
 
 @njit(cache=True, inline="always")
@@ -160,6 +175,8 @@ class GridArena:
     size: int
     blocked: np.ndarray
     moves: str = "king"
+    sensors: Sensors | None = None
+    """Range sensors the agent reads here (:mod:`cml_edge.grid.sensors`); None: none."""
 
     def __post_init__(self) -> None:
         if int(self.size) != self.size or self.size < 2:
@@ -169,12 +186,41 @@ class GridArena:
             raise InputError(f"blocked has shape {self.blocked.shape}, expected "
                              f"{(self.size,) * 2} or {(self.size,) * 3}")
         move_table(dims, self.moves)
+        if self.sensors is not None:
+            self.sensors.check(dims, self.moves, self.size)
+
+    def sensing(self, sensors: Sensors | None) -> GridArena:
+        """This arena with ``sensors`` read on it."""
+        return replace(self, sensors=sensors)
+
+    @property
+    def n_sensors(self) -> int:
+        """K, the range readings in the observation (0 without sensors)."""
+        return self.sensors.k if self.sensors is not None else 0
+
+    def check_inputs(self, n_i: int) -> None:
+        """InputError unless a CML of ``n_i`` inputs observes this arena (a position per
+        axis and a reading per range sensor)."""
+        if n_i != self.dims + self.n_sensors:
+            raise InputError(f"the CML takes {n_i} inputs; the {self.dims}-D arena with "
+                             f"{self.n_sensors} range sensors gives "
+                             f"{self.dims + self.n_sensors}")
 
     @classmethod
     def empty(cls, size: int = 30, dims: int = 2, moves: str = "king") -> GridArena:
         _check_size(size)
         move_table(dims, moves)
         return cls(int(size), np.zeros((int(size),) * dims, dtype=bool), moves)
+
+    @classmethod
+    def sensed(cls, sensors: Sensors, size: int, dims: int = 2, moves: str = "king"
+               ) -> GridArena:
+        """The arena a model with range ``sensors`` trains on: side ``size``, its obstacles
+        placed from the sensors' layout seed (:mod:`cml_edge.grid.sensors`), the sensors
+        read on it."""
+        sensors.check(dims, moves, size)
+        return cls.with_obstacles(size, sensors.obstacles_on(size, dims), sensors.layout_seed,
+                                  dims, moves).sensing(sensors)
 
     @classmethod
     def with_obstacles(cls, size: int, n_obstacles: int, seed: int, dims: int = 2,
@@ -222,8 +268,12 @@ class GridArena:
         table = self.move_table
         cell_masks(free, self.size, table, masks)
         strides = self.size ** np.arange(self.dims - 1, -1, -1)
+        readings = (self.sensors.readings(free, self.size, move_table(
+            self.dims, self.sensors.move_set(self.dims))) if self.sensors is not None
+                    else np.zeros((free.size, 0)))
+        open_goal = float(self.sensors is None or self.sensors.goal == "open")
         return Cells(free, masks, table, (table * strides).sum(axis=1).astype(np.int64),
-                     self.size)
+                     self.size, readings, open_goal)
 
     @property
     def n_obstacles(self) -> int:

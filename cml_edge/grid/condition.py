@@ -28,6 +28,7 @@ from cml_edge.grid.maps import load_map, load_scen, resolve_map, scenario_pairs,
 from cml_edge.grid.metrics import Pairs, draw_pairs
 from cml_edge.grid.planning import PLANNERS
 from cml_edge.grid.seed_run import Evaluation
+from cml_edge.grid.sensors import Sensors
 from cml_edge.grid.voxels import load_voxel_map, load_voxel_scen, resolve_voxel_map, voxel_pairs
 from cml_edge.protocol import EVAL_SEED
 
@@ -94,10 +95,12 @@ class Condition(Record):
                                                   Path(self.scen).name, moves)
                                    if self.scen else None)
 
-    def evaluation(self, train_size: int, dims: int = 2, moves: str = "king") -> Evaluation:
-        """The arena, pairs, step budget and planner, for models trained on the empty arena
-        of side ``train_size`` in ``dims`` dimensions with the ``moves`` set (a map:
-        :meth:`map_arena`, its problems or pairs drawn on it)."""
+    def evaluation(self, train_size: int, dims: int = 2, moves: str = "king",
+                   sensors: Sensors | None = None) -> Evaluation:
+        """The arena, pairs, step budget and planner, for models trained on the arena of
+        side ``train_size`` in ``dims`` dimensions with the ``moves`` set (a map:
+        :meth:`map_arena`, its problems or pairs drawn on it), read by the models' range
+        ``sensors`` (:mod:`cml_edge.grid.sensors`; None: none)."""
         pairs = None
         if self.map:
             arena, pairs = self.map_arena(dims, moves)
@@ -107,4 +110,6 @@ class Condition(Record):
                      if self.obstacles else GridArena.empty(size, dims, moves))
         if pairs is None:
             pairs = draw_pairs(arena, self.trials, self.eval_seed)
+        if sensors is not None:
+            arena = arena.sensing(sensors)
         return Evaluation(arena, pairs, self.max_steps or step_budget(arena.size), self.planner)

@@ -212,7 +212,7 @@ class GridExplorer(NamedTuple):
     n_expl: int  # N_expl of Eq. 5
     novelty: np.ndarray  # float64[n_actions] work vector
     best: np.ndarray  # float64[K_NEAREST] work vector
-    obs: np.ndarray  # float64 (2, dims) work vectors: the observations o_t, o_{t+1}
+    obs: np.ndarray  # float64 (2, dims + K) work vectors: the observations o_t, o_{t+1}
     pos: np.ndarray  # int64 (4, dims) work vectors: p_t, p_{t+1}, a neighbour, an offset
 
     @classmethod
@@ -222,7 +222,8 @@ class GridExplorer(NamedTuple):
                         dtype=np.uint64)
         return cls(cells, np.zeros_like(cells.free), np.zeros(1, np.int64), keys,
                    int(cells.free.sum()), explore_code(config.explore), config.n_expl,
-                   np.zeros(arena.n_actions), np.zeros(K_NEAREST), np.zeros((2, arena.dims)),
+                   np.zeros(arena.n_actions), np.zeros(K_NEAREST),
+                   np.zeros((2, arena.dims + arena.n_sensors)),
                    np.zeros((4, arena.dims), np.int64))
 
 

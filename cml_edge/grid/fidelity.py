@@ -30,11 +30,11 @@ from numba import njit
 
 from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.fidelity import read_snr, sample_indices, weight_error
-from cml_edge.core.learning import schedule_defers
 from cml_edge.core.step import FactoredScorer, prepare, scores
 from cml_edge.engine.timings import stage
 from cml_edge.grid.arena import GridArena, cell_at, unpack_moves
 from cml_edge.grid.escape import Escape
+from cml_edge.grid.paths import factored_supported
 from cml_edge.grid.planning import (
     WTA,
     PlanResult,
@@ -54,7 +54,7 @@ def float_twin(seed: int, arena: GridArena, config: TrainConfig, cml_config: CML
     with stage("twin"):
         if twin is None:
             twin = CML.create(cml_config, "float", seed)
-        path = "factored" if schedule_defers(config.schedule) else "direct"
+        path = "factored" if factored_supported(twin, config.schedule, arena) else "direct"
         train(twin, arena, config, seed, path=path, epoch=config.walks, first_walk=first_walk)
     return twin
 
@@ -79,7 +79,7 @@ def replay_loop(scorer, chooser, cells, origin, scale, normalize, gram, goals, p
             for k in range(dims):
                 p[k] = paths[trial, t, k]
             c = cell_at(p, cells.n)
-            decision_inputs(p, g, origin, scale, o, dgo)
+            decision_inputs(cells, c, p, g, origin, scale, o, dgo)
             scores(scorer, o, dgo, u, score)
             if unpack_moves(cells.masks[c], mask) == 0:
                 break
@@ -108,17 +108,23 @@ def decision_agreement(twin: CML, arena: GridArena, goals: np.ndarray, result: P
     return int(agree.sum()), int(result.steps.sum())
 
 
-def plan_states(cml: CML, goals: np.ndarray, result: PlanResult, seed: int
+def plan_states(cml: CML, arena: GridArena, goals: np.ndarray, result: PlanResult, seed: int
                 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(o, o* - o) of a seeded sample of the states the device decided in."""
-    cells = [(trial, t) for trial in range(len(goals)) for t in range(int(result.steps[trial]))]
+    """(o, o* - o) of a seeded sample of the states the device decided in on ``arena``
+    (as :func:`~cml_edge.grid.planning.decision_inputs` forms them)."""
+    states = [(trial, t) for trial in range(len(goals)) for t in range(int(result.steps[trial]))]
     c = cml.config
+    cells = arena.cells()
+    readings = cells.readings.reshape(arena.blocked.shape + (-1,))
     out = []
-    for i in sample_indices(len(cells), seed, STREAM_FIDELITY):
-        trial, t = cells[i]
-        o = (result.paths[trial, t].astype(float) - c.obs_origin) / c.obs_scale
+    for i in sample_indices(len(states), seed, STREAM_FIDELITY):
+        trial, t = states[i]
+        p = result.paths[trial, t]
+        o = (p.astype(float) - c.obs_origin) / c.obs_scale
         goal = (np.asarray(goals[trial], float) - c.obs_origin) / c.obs_scale
-        out.append((o, goal - o))
+        sensed = readings[tuple(p)]
+        out.append((np.concatenate([o, sensed]),
+                    np.concatenate([goal - o, -sensed * cells.open_goal])))
     return out
 
 
@@ -130,4 +136,4 @@ def seed_fidelity(seed: int, cml: CML, twin: CML, arena: GridArena, goals: np.nd
         return {"weight_error": weight_error(cml, twin),
                 "decision_agreement": same / total if total else None,
                 "decisions": total, "decisions_agreed": same,
-                "read_snr": read_snr(cml, plan_states(cml, goals, result, seed))}
+                "read_snr": read_snr(cml, plan_states(cml, arena, goals, result, seed))}

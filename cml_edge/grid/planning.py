@@ -30,7 +30,7 @@ from cml_edge.core.cml import CML, ReferenceScorer
 from cml_edge.core.step import FactoredScorer, SeamScorer, prepare, scores, wta
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena, cell_at, observe, unpack_moves
+from cml_edge.grid.arena import GridArena, cell_at, observe, sense, unpack_moves
 from cml_edge.grid.escape import WALL_NEXT, Escape, escape_choose, escape_reset
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.routing import routed
@@ -61,10 +61,10 @@ class PlanResult(NamedTuple):
 
 
 def decision_buffers(arena: GridArena) -> tuple:
-    """The work arrays of one decision on ``arena``: o, o* - o, u, the scores, the available
-    moves, the position and the goal's."""
-    dims, n_a = arena.dims, arena.n_actions
-    return (np.zeros(dims), np.zeros(dims), np.zeros(n_a), np.zeros(n_a),
+    """The work arrays of one decision on ``arena``: o and o* - o (position and sensor
+    inputs), u, the scores, the available moves, the position and the goal's."""
+    dims, n_a, n_i = arena.dims, arena.n_actions, arena.dims + arena.n_sensors
+    return (np.zeros(n_i), np.zeros(n_i), np.zeros(n_a), np.zeros(n_a),
             np.zeros(n_a, dtype=np.uint8), np.zeros(dims, np.int64), np.zeros(dims, np.int64))
 
 
@@ -109,6 +109,7 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
     if path == "factored" and not all(getattr(a, "supports_factored", False)
                                       for a in cml.arrays):
         raise InputError("the factored path needs float64 arrays")
+    arena.check_inputs(cml.config.n_i)
     starts = np.ascontiguousarray(starts, dtype=np.int64).reshape(-1, arena.dims)
     goals = np.ascontiguousarray(goals, dtype=np.int64).reshape(-1, arena.dims)
     n = len(starts)
@@ -126,13 +127,18 @@ def plan(cml: CML, arena: GridArena, starts: np.ndarray, goals: np.ndarray,
 
 
 @njit(cache=True, inline="always")
-def decision_inputs(p, g, origin, scale, o, dgo):
-    """o and o* - o at position ``p`` for the goal at ``g``: the planning inputs (o* - o is
-    read through W_q once)."""
+def decision_inputs(cells, c, p, g, origin, scale, o, dgo):
+    """o and o* - o at cell ``c`` (position ``p``) of ``cells`` for the goal at ``g``: the
+    planning inputs (o* - o is read through W_q once). The goal's range-sensor inputs are
+    those of open space, zero (:mod:`cml_edge.grid.sensors`)."""
+    dims = p.shape[0]
     observe(g, origin, scale, dgo)
     observe(p, origin, scale, o)
-    for i in range(o.shape[0]):
+    sense(cells, c, dims, o)
+    for i in range(dims):
         dgo[i] -= o[i]
+    for i in range(dims, o.shape[0]):
+        dgo[i] = -o[i] * cells.open_goal
 
 
 @kernel
@@ -157,7 +163,7 @@ def plan_loop(scorer, chooser, cells, origin, scale, normalize, gram, starts, go
         goal = cell_at(g, cells.n)
         taken = 0
         while taken < max_steps and c != goal:
-            decision_inputs(p, g, origin, scale, o, dgo)
+            decision_inputs(cells, c, p, g, origin, scale, o, dgo)
             scores(scorer, o, dgo, u, score)
             if unpack_moves(cells.masks[c], mask) == 0:
                 break

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from cml_edge.grid.arena import GridArena
-from cml_edge.io.figures import pyplot, save_png
+from cml_edge.io.figures import pyplot, save_png, three_views
 
 
 def plot_navigation(path: str | Path, arena: GridArena, trajectory: np.ndarray, start, goal,
@@ -41,22 +41,14 @@ def plot_navigation(path: str | Path, arena: GridArena, trajectory: np.ndarray, 
     plt.close(fig)
 
 
-VIEWS = ((25.0, -60.0, "perspective", None), (90.0, -90.0, "from above (x, y)", "z"),
-         (0.0, -90.0, "from the side (x, z)", "y"))
-"""The three views of a 3-D path: (elevation, azimuth, label, the axis seen end-on) of
-matplotlib's 3-D axes; the two flat views are orthographic, their end-on axis unlabelled."""
-
-
 def plot_navigation_3d(path: str | Path, arena: GridArena, trajectory: np.ndarray, start, goal,
                        title: str | None = None) -> None:
     """PNG of a 3-D arena's obstacles (grey), start (cross), goal (star) and the path taken,
-    seen from :data:`VIEWS`."""
-    plt = pyplot()
+    seen from :data:`~cml_edge.io.figures.VIEWS`."""
     n = arena.size
-    fig = plt.figure(figsize=(14, 5))
     blocked = np.argwhere(arena.blocked)
-    for i, (elev, azim, label, end_on) in enumerate(VIEWS):
-        ax = fig.add_subplot(1, len(VIEWS), i + 1, projection="3d")
+
+    def draw(ax) -> None:
         if len(blocked):
             ax.scatter(*blocked.T, marker="s", s=max(2.0, 400.0 / n), color="0.4", alpha=0.25,
                        depthshade=False, label="obstacle")
@@ -64,18 +56,7 @@ def plot_navigation_3d(path: str | Path, arena: GridArena, trajectory: np.ndarra
                 linewidth=1.5, label=f"path ({len(trajectory) - 1} steps)")
         ax.plot(*[[v] for v in start], "x", color="tab:red", markersize=10, mew=3, label="start")
         ax.plot(*[[v] for v in goal], "*", color="tab:green", markersize=14, label="goal")
-        for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
-            setter(-0.5, n - 0.5)
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
-        ax.set_zlabel("z")
-        ax.view_init(elev=elev, azim=azim)
-        if end_on is not None:
-            ax.set_proj_type("ortho")
-            getattr(ax, f"set_{end_on}ticks")([])
-            getattr(ax, f"set_{end_on}label")("")
-        ax.set_title(label, fontsize=9)
-    fig.axes[0].legend(loc="upper left", fontsize=7, frameon=False)
-    fig.suptitle(title or f"CML navigation, {n} x {n} x {n} arena")
+
+    fig = three_views(draw, (-0.5, n - 0.5), title or f"CML navigation, {n} x {n} x {n} arena")
     save_png(fig, path)
-    plt.close(fig)
+    pyplot().close(fig)

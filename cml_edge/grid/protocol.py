@@ -202,8 +202,9 @@ def protocol_seed(p: Protocol, seed: int,
     """One model seed of :func:`run_protocol`, as JSON (what :func:`pool_protocol` pools):
     the evaluation's per-trial ``final`` and ``steps``, the seed's ``summary`` (with its
     fidelity record), the ``curve`` (e_pos every ``epoch`` walks), the ``train_error``
-    and the arrays' ``counters``, and ``wall_s``, the seconds it took. ``on_epoch``:
-    :func:`train_seed`'s."""
+    and the arrays' ``counters`` (and those of the training alone, ``learn_counters``,
+    and of the evaluation, ``plan_counters``), and ``wall_s``, the seconds it took.
+    ``on_epoch``: :func:`train_seed`'s."""
     t0 = time.perf_counter()
     training = p.training()
     arena = training.arena
@@ -216,6 +217,7 @@ def protocol_seed(p: Protocol, seed: int,
               "summary": {"seed": int(seed), **summary},
               "curve": [point["e_pos_mean"] for point in run.curve],
               "train_error": run.train_error.tolist(), "counters": run.counters,
+              "learn_counters": run.learn_counters, "plan_counters": run.eval_counters,
               "fidelity": None}
     if p.fidelity:
         (record["fidelity"],) = run_fidelity(run, training, [evaluation])
@@ -234,19 +236,22 @@ PROTOCOL_TASK = "cml_edge.grid.protocol:protocol_task"
 
 
 def run_protocol(protocol: Protocol = Protocol(),
-                 progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                 progress: Callable[[int, int], None] | None = None,
+                 records: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """Train and evaluate one model per seed of ``protocol`` (:func:`protocol_seed`) and
     pool them (:func:`pool_protocol`): the JSON-ready result of ``emulate``.
     ``progress(done, total)`` counts units of work over all seeds: each seed's training
     epochs (one every ``epoch`` walks), then its evaluation (with the fidelity); it is
-    called with 0 first, then after each unit."""
+    called with 0 first, then after each unit. ``records``: a list the seeds' records
+    (:func:`protocol_seed`) are appended to, for what reads them beyond the pooled result
+    (``emulate``'s hardware budget, :func:`cml_edge.costs.budget.protocol_costs`)."""
     p = protocol
     units = -(-p.train.walks // p.epoch) + 1  # per seed: its epochs, its evaluation
     total = units * len(p.seeds)
     tick = progress or (lambda done, total: None)
     tick(0, total)
     t0 = time.perf_counter()
-    records = []
+    records = [] if records is None else records
     for n, seed in enumerate(p.seeds):
         records.append(protocol_seed(p, seed, on_epoch=lambda walks, n=n: tick(
             n * units + -(-walks // p.epoch), total)))

@@ -34,9 +34,10 @@ from cml_edge.grid.training import TrainConfig, train
 
 def cml_config_for(arena: GridArena, **overrides: Any) -> CMLConfig:
     """The CML's config for a grid arena: :meth:`CMLConfig.for_arena` of its side, with an
-    observation per axis (n_i = the arena's dimensions) and an action per move (n_a)."""
-    return CMLConfig.for_arena(arena.size, **{"n_i": arena.dims, "n_a": arena.n_actions,
-                                              **overrides})
+    observation per axis and per range sensor (n_i = the arena's dimensions + K) and an
+    action per move (n_a)."""
+    return CMLConfig.for_arena(arena.size, **{"n_i": arena.dims + arena.n_sensors,
+                                              "n_a": arena.n_actions, **overrides})
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +96,14 @@ class SeedRun:
     excluded."""
     cpu_s: list[float]
     """The same in process CPU time."""
+    curve_counters: dict[str, int] = field(default_factory=dict)
+    """What the curve's plans added to the arrays' counters while training (so
+    ``train_counters`` less these is the training's own work: :attr:`learn_counters`)."""
+
+    @property
+    def learn_counters(self) -> dict[str, int]:
+        """The counters of the training alone, the curve's plans taken out."""
+        return {k: v - self.curve_counters.get(k, 0) for k, v in self.train_counters.items()}
 
     @property
     def eval_counters(self) -> dict[str, int]:
@@ -111,13 +120,19 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
     cml_config = training.cml_config or cml_config_for(training.arena)
     cml = CML.create(cml_config, training.backend, seed, training.chip,
                      **training.backend_options)
-    path = training.path or default_path(cml, training.config.schedule)
+    path = training.path or default_path(cml, training.config.schedule,
+                                             arena=training.arena)
     points: list[dict[str, Any]] = []
+
+    spent: dict[str, int] = {}  # the curve's plans' counters
 
     def point(walks: int) -> None:
         if curve is not None:
+            before = cml.counters()
             with stage("curve"):
                 r = curve.plan(cml, path)
+            for k, v in cml.counters().items():
+                spent[k] = spent.get(k, 0) + v - before.get(k, 0)
             points.append({"walks": walks, **summarize(r.final, r.steps, curve.pairs)})
 
     if curve_at_start:
@@ -138,7 +153,7 @@ def train_seed(seed: int, training: Training, *, curve: Evaluation | None = None
                        epoch=training.epoch, on_epoch=epoch_done)
     counters = cml.counters()
     return SeedRun(int(seed), cml, path, errors, points, [], [], counters, dict(counters), wall,
-                   cpu)
+                   cpu, spent)
 
 
 def evaluate_seed(run: SeedRun, evaluations: Sequence[Evaluation], idle_s: float = 0.0) -> None:

@@ -45,7 +45,7 @@ from cml_edge.core.learning import ReferenceLearner, check_walks, schedule_defer
 from cml_edge.core.step import SeamLearner, begin_walk, copy_matrix, end_walk, learn
 from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
-from cml_edge.grid.arena import GridArena, observe, position
+from cml_edge.grid.arena import GridArena, observe, position, sense
 from cml_edge.grid.exploration import (
     N_EXPL_FRACTION,
     GridExplorer,
@@ -101,6 +101,10 @@ def train(cml: CML, arena: GridArena, config: TrainConfig, seed: int, path: str 
     if path == "factored" and not (defer and all(
             getattr(a, "supports_factored", False) for a in cml.arrays)):
         raise InputError("the factored path needs float64 arrays and the per-walk schedule")
+    if path == "factored" and arena.n_sensors:
+        raise InputError("the factored path needs an observation of the position alone "
+                         "(range sensors train on the direct path)")
+    arena.check_inputs(cml.config.n_i)
     learner = make_learner(cml, path, defer, arena)
     explorer = GridExplorer.of(arena, config, seed)
     loop = train_loop.py_func if path == "reference" else train_loop
@@ -141,10 +145,12 @@ def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
     p_1 = explorer.pos[1]
     q = explorer.pos[2]
     off = explorer.pos[3]
+    dims = p.shape[0]
     for w in range(w0, w1):
         c = nth_free_cell(cells.free, randint(keys[0], w, explorer.n_free))
         position(c, cells.n, p)
         observe(p, origin, scale, o_t)
+        sense(cells, c, dims, o_t)
         visit(visited, n_visited, c)
         t_expl = threshold(w, explorer.n_expl)
         begin_walk(learner)
@@ -152,11 +158,12 @@ def train_loop(learner, explorer, origin, scale, w0, w1, steps, errors):
         for t in range(steps):
             a = choose_action(explorer.code, cells, visited, n_visited[0], c, p, t_expl,
                               keys[1], w * steps + t, novelty, best, q, off)
-            for k in range(p.shape[0]):
+            for k in range(dims):
                 p_1[k] = p[k] + table[a, k]
-            observe(p_1, origin, scale, o_1)
-            total += learn(learner, o_t, o_1, a)
             c += cells.offsets[a]
+            observe(p_1, origin, scale, o_1)
+            sense(cells, c, dims, o_1)
+            total += learn(learner, o_t, o_1, a)
             p, p_1 = p_1, p
             o_t, o_1 = o_1, o_t
             visit(visited, n_visited, c)

@@ -1,7 +1,9 @@
 """The grid as a world of the scenarios (:class:`cml_edge.core.world.World`).
 
-A run (``run``: ``arena``, ``walks``, ``steps``, ``schedule``) trains on the empty arena
-of side ``arena`` with random exploration (:func:`cml_edge.grid.seed_run.train_seed`);
+A run (``run``: ``arena``, ``walks``, ``steps``, ``schedule``, and off the plane's king
+moves ``dims`` and ``moves``) trains on the empty arena of side ``arena`` (a cube with
+``dims`` 3; 2 and ``king`` when the run does not say) with random exploration
+(:func:`cml_edge.grid.seed_run.train_seed`);
 the float64 twin is :func:`cml_edge.grid.fidelity.float_twin`. A part is an evaluation
 condition (:class:`cml_edge.grid.condition.Condition`: an arena, obstacles or a map,
 pairs from the evaluation seed, a planner, a step budget); its record is the part's
@@ -23,7 +25,7 @@ from cml_edge.grid.condition import Condition
 from cml_edge.grid.fidelity import float_twin, seed_fidelity
 from cml_edge.grid.metrics import pool_records, summarize
 from cml_edge.grid.planning import PlanResult
-from cml_edge.grid.seed_run import Evaluation, Training, train_seed
+from cml_edge.grid.seed_run import Evaluation, Training, cml_config_for, train_seed
 from cml_edge.grid.training import TrainConfig, train
 
 RELEARN_SCHEDULE = "step"
@@ -41,11 +43,16 @@ class GridPlan(NamedTuple):
     result: PlanResult
 
 
+def space(run: Mapping[str, Any]) -> tuple[int, str]:
+    """(dims, moves) of ``run``: the plane's king moves when it does not say."""
+    return int(run.get("dims", 2)), str(run.get("moves", "king"))
+
+
 def _training(run: Mapping[str, Any]) -> tuple[GridArena, TrainConfig, CMLConfig]:
     """The empty training arena, the training config and the CML config of ``run``."""
-    return (GridArena.empty(run["arena"]),
-            TrainConfig(run["walks"], run["steps"], "random", run["schedule"]),
-            CMLConfig.for_arena(run["arena"]))
+    arena = GridArena.empty(run["arena"], *space(run))
+    return (arena, TrainConfig(run["walks"], run["steps"], "random", run["schedule"]),
+            cml_config_for(arena))
 
 
 class GridWorld:
@@ -72,7 +79,7 @@ class GridWorld:
         float_twin(seed, arena, more, cml_config, first_walk=first, twin=twin)
 
     def plan(self, cml: CML, part: Mapping[str, Any], run: Mapping[str, Any]) -> GridPlan:
-        evaluation = Condition.within(part).evaluation(run["arena"])
+        evaluation = Condition.within(part).evaluation(run["arena"], *space(run))
         return GridPlan(evaluation, evaluation.plan(cml, PATH))
 
     def summarise(self, seed: int, cml: CML, twin: CML, part: Mapping[str, Any],

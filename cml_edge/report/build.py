@@ -20,6 +20,7 @@ import os
 import platform
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,6 @@ from cml_edge import __version__
 from cml_edge.backends import BACKENDS, report_sweeps, report_systems
 from cml_edge.baselines import load_results
 from cml_edge.baselines.settings import RESULTS_PATH
-from cml_edge.core.cml import CMLConfig
 from cml_edge.core.finite import dumps
 from cml_edge.costs import dqn as dqn_costs
 from cml_edge.costs import ledger
@@ -43,17 +43,29 @@ from cml_edge.grid.arena import GridArena
 from cml_edge.grid.metrics import convergence_index, draw_pairs
 from cml_edge.grid.paths import default_path
 from cml_edge.grid.protocol import PROTOCOL_TASK, Protocol, pool_protocol
-from cml_edge.grid.seed_run import Evaluation, Training, train_and_evaluate
+from cml_edge.grid.seed_run import Evaluation, Training, cml_config_for, train_and_evaluate
 from cml_edge.grid.training import TrainConfig
 from cml_edge.io.files import atomic_folder, display_path, own_folder
 from cml_edge.protocol import EVAL_SEED
 from cml_edge.report.batch import Batch
 from cml_edge.report.figures import FIGURE_FILES
-from cml_edge.report.scorecard import ScorecardPlan, build_scorecard, scorecard_tasks
+from cml_edge.report.scorecard import (
+    TARGET,
+    ScorecardPlan,
+    build_scorecard,
+    scorecard_tasks,
+)
 from cml_edge.scenarios.registry import BUDGETS
 
 SCHEMA_VERSION = 2
-"""2: the scorecard, break points and recovery curves."""
+"""2: the scorecard, break points and recovery curves (and, added, the 3-D section
+``space``)."""
+SPACE = (3, "king")
+"""The report's third dimension: the N x N x N volume with the 26 king moves."""
+SPACE_KEYS = ("parameters", "parameter_bytes", "train_bytes_direct",
+              "update_bytes_per_run_direct", "device_pulses_per_run", "energy_per_action_nj",
+              "energy_per_run_uj", "steps_to_converge", "success_rate", "decision_agreement")
+"""The figures the 3-D section sets beside the plane's, with their ratio."""
 N_EXAMPLES = 3
 
 def _profile(quick: bool) -> dict[str, int]:
@@ -65,13 +77,15 @@ def _profile(quick: bool) -> dict[str, int]:
 
 
 def measure_operations(backend: str, options: dict[str, Any], explore: str = "random",
-                       trials: int = 100, walks: int = 100, steps: int = 900) -> dict[str, Any]:
+                       trials: int = 100, walks: int = 100, steps: int = 900,
+                       dims: int = 2, moves: str = "king") -> dict[str, Any]:
     """One model trained (``walks`` x ``steps``) and planned (``trials`` pairs) operation by
     operation: counters per phase, priced by the device's cost model (a sweep task: JSON
-    in, JSON out)."""
-    arena = GridArena.empty(30)
+    in, JSON out); on the 30 x 30 arena, or in ``dims`` 3 the 30 x 30 x 30 volume, with
+    the ``moves`` set."""
+    arena = GridArena.empty(30, dims, moves)
     config = TrainConfig(walks, steps, explore=explore)
-    training = Training(arena, config, CMLConfig.for_arena(30), backend, options,
+    training = Training(arena, config, cml_config_for(arena), backend, options,
                         default_path(backend, config.schedule, options, counted=True))
     run = train_and_evaluate(0, training, [Evaluation(arena, draw_pairs(arena, trials,
                                                                         EVAL_SEED))])
@@ -87,7 +101,7 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
             "train_wall_s": run.wall_s[-1], "energy_train_pj": e_train,
             "energy_plan_pj": e_plan, "energy_sources": e_sources,
             "counted_macs": ledger.counted_macs(model, run.eval_counters),
-            "memory": ledger.cml_memory(cml, explore, 30),
+            "memory": ledger.cml_memory(cml, explore, 30, dims),
             "factored": ledger.cml_factored_traffic(cml, config.walks, config.steps),
             "parameters": cml.parameter_count(),
             "inference_flops_formula": cml.inference_flops()}
@@ -96,12 +110,14 @@ def measure_operations(backend: str, options: dict[str, Any], explore: str = "ra
 OPERATIONS_TASK = "cml_edge.report.build:measure_operations"
 
 
-def system_protocol(backend: str, options: dict[str, Any], prof: dict[str, int]) -> Protocol:
+def system_protocol(backend: str, options: dict[str, Any], prof: dict[str, int],
+                    dims: int = 2, moves: str = "king") -> Protocol:
     """The protocol a system of the report is scored on: the paper's at the budget of
-    :func:`_profile` ``prof``, a curve point every walk."""
+    :func:`_profile` ``prof``, a curve point every walk; in ``dims`` dimensions with the
+    ``moves`` set (the 3-D section)."""
     return Protocol(backend, range(prof["seeds"]), prof["trials"],
                     train=TrainConfig(prof["walks"], prof["steps"]), epoch=1,
-                    backend_options=options)
+                    backend_options=options, dims=dims, moves=moves)
 
 
 def protocol_tasks(prefix: str, protocol: Protocol) -> list[Task]:
@@ -155,6 +171,25 @@ def cml_row(label: str, backend: str, options: dict[str, Any], acc: dict[str, An
         "steps_to_converge": steps_to_converge(acc["curve_e_pos_mean"],
                                                acc["epoch_walks"] * acc["steps"]),
     }
+
+
+def space_row(plane: dict[str, Any], plane_acc: dict[str, Any], space: dict[str, Any],
+              space_acc: dict[str, Any]) -> dict[str, Any]:
+    """One device of the 3-D section: its :data:`SPACE_KEYS` on the plane (``plane``, its
+    :func:`cml_row`, and ``plane_acc``, its protocol's result) and in the volume
+    (``space``, ``space_acc``), and each 3-D / 2-D ratio (None where either is n/a or
+    the plane's is 0); the 3-D system's whole row under ``system``."""
+    def figures(row: dict[str, Any], acc: dict[str, Any]) -> dict[str, Any]:
+        agreement = acc.get("decision_agreement")
+        return {**{k: row.get(k) for k in SPACE_KEYS if k != "decision_agreement"},
+                "decision_agreement": None if agreement is None else agreement["mean"]}
+
+    two, three = figures(plane, plane_acc), figures(space, space_acc)
+    return {"label": plane["label"], "backend": plane["backend"], "options": plane["options"],
+            "dims": SPACE[0], "moves": SPACE[1], "plane": two, "space": three,
+            "ratio": {k: None if two[k] in (None, 0) or three[k] is None
+                      else three[k] / two[k] for k in SPACE_KEYS},
+            "system": space}
 
 
 def counted_flops(macs: int, steps: int) -> float:
@@ -223,7 +258,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                  dqn_results: str | Path = RESULTS_PATH,
                  scorecard: ScorecardPlan | None = None, folder: str | Path | None = None,
                  workers: int | None = None, scheduler: str | None = None,
-                 restart: bool = False) -> dict[str, Any]:
+                 restart: bool = False, space: bool = True) -> dict[str, Any]:
     """Everything the report shows, as one JSON-ready dict; the DQN's accuracy and times
     come from ``dqn_results`` (what ``cml-edge dqn`` wrote), n/a if it does not exist.
     ``scorecard``: what the scorecard runs (default :meth:`ScorecardPlan.of` ``quick``;
@@ -237,7 +272,11 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     task made tiny (:func:`~cml_edge.engine.warmup.task_units`; the stage ``compile``).
     The stages: the systems' protocol seeds and operation counts, the precision sweeps
     and the scorecard's models in one batch, then the break points' bisections in
-    lockstep. ``progress(stage, done, total)`` counts each stage's tasks."""
+    lockstep. ``progress(stage, done, total)`` counts each stage's tasks. With ``space``
+    (the default), the 3-D section ``space``: every system again in the 30 x 30 x 30
+    volume (:data:`SPACE`; the protocol and the operation counts, :func:`space_row`) and
+    the scorecard's 3-D scenarios (:attr:`ScorecardPlan.space`); the plane's sections are
+    the same with or without it."""
     t0 = time.perf_counter()
     prof = _profile(quick)
     systems = [s for s in (report_systems() if systems is None else systems) if s[1] in BACKENDS]
@@ -254,20 +293,37 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
                       {"backend": backend, "options": opts, "trials": prof["trials"],
                        "walks": prof["walks"], "steps": prof["steps"]})
                  for label, backend, opts in systems]
+    space_protocols = [(f"space-{label}", system_protocol(backend, opts, prof, *SPACE))
+                       for label, backend, opts in systems] if space else []
+    space_ops = [Task(f"space-operations-{label}", OPERATIONS_TASK,
+                      {"backend": backend, "options": opts, "trials": prof["trials"],
+                       "walks": prof["walks"], "steps": prof["steps"], "dims": SPACE[0],
+                       "moves": SPACE[1]})
+                 for label, backend, opts in systems] if space else []
+    if not space:
+        plan = replace(plan, space=())
     if scheduler is None:  # the kernels of every task first, on every core
-        warm(task_units([t for prefix, p in sys_protocols + sweep_protocols
-                         for t in protocol_tasks(prefix, p)[:1]] + ops_tasks
+        warm(task_units([t for prefix, p in sys_protocols + sweep_protocols + space_protocols
+                         for t in protocol_tasks(prefix, p)[:1]] + ops_tasks + space_ops
                         + [t for ts in scorecard_tasks(plan).values() for t in ts]),
              workers or plan.workers,
              progress and (lambda done, total, what: progress("compile", done, total)))
     with Batch(workers or plan.workers, scheduler, folder, settings, progress,
                restart) as batch:
         done = batch.run("systems", [t for prefix, p in sys_protocols + sweep_protocols
-                                     for t in protocol_tasks(prefix, p)] + ops_tasks)
+                                     + space_protocols for t in protocol_tasks(prefix, p)]
+                         + ops_tasks + space_ops)
         card = build_scorecard(plan, batch)
-    rows = [cml_row(label, backend, opts, protocol_result(prefix, p, done),
-                    done[f"operations-{label}"])
-            for (label, backend, opts), (prefix, p) in zip(systems, sys_protocols)]
+    accs = [protocol_result(prefix, p, done) for prefix, p in sys_protocols]
+    rows = [cml_row(label, backend, opts, acc, done[f"operations-{label}"])
+            for (label, backend, opts), acc in zip(systems, accs)]
+    space_rows = []
+    for (label, backend, opts), row, acc, (prefix, p) in zip(systems, rows, accs,
+                                                             space_protocols):
+        acc3 = protocol_result(prefix, p, done)
+        space_rows.append(space_row(row, acc, cml_row(
+            label, backend, opts, acc3, done[f"space-operations-{label}"]), acc3))
+    space_card = card.pop("space_scorecard", None)
     dqn, dqn_data = dqn_rows(Path(dqn_results))
     sweep_rows = []
     for (figure, label, backend, opts), (prefix, p) in zip(sweeps, sweep_protocols):
@@ -294,6 +350,12 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         "sweeps": sweep_rows,
         "costs": ledger.costs_table(),
         **card,
+        **({"space": {"dims": SPACE[0], "moves": SPACE[1], "arena": 30,
+                      "systems": space_rows, "scorecard": space_card or [],
+                      "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,
+                                         "target": TARGET, "scenarios": list(plan.space),
+                                         "devices": [d[0] for d in plan.devices]}}}
+           if space else {}),
         "wall_time_s": time.perf_counter() - t0,
     }
 

@@ -4,7 +4,8 @@ formatted by :func:`~cml_edge.report.numbers.human`.
 
 :func:`outline` lists the sections both pages show, in order: the summary (verdicts and
 costs), what changed since an older report (``old``, when given), the budget, the
-scorecard, break points, recovery, the sweeps and the energy constants.
+scorecard, break points, recovery, the third dimension (a report that has it), the sweeps
+and the energy constants.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from cml_edge.report import card, sections
+from cml_edge.report import card, sections, space
 from cml_edge.report.figures import render_figures
 from cml_edge.report.numbers import human
 from cml_edge.report.page import page
@@ -31,7 +32,7 @@ def outline(report: dict[str, Any], old: tuple[dict[str, Any], str] | None = Non
     parts.append(sections.budget(report))
     if report.get("scorecard"):
         parts += [card.scorecard(report), card.breakpoints(report), card.recovery(report)]
-    parts += [sections.sweeps(report), sections.constants(report)]
+    parts += [space.space(report), sections.sweeps(report), sections.constants(report)]
     return [p for p in parts if p is not None]
 
 

@@ -21,6 +21,8 @@ runs), then each break point the devices declare for the report
   range does not bracket the target: ``note`` then says why, with both ends' success),
   ``target``, ``seeds``, ``log`` (the knob is swept on a log scale, and drawn on one),
   and every evaluation the bisection took;
+- ``space_scorecard`` (with :attr:`ScorecardPlan.space`): the scorecard's rows of the
+  3-D scenarios (each with its ``dims``), for the report's 3-D section;
 - ``recovery``: one row per device x K (walks of in-situ relearning after a year of
   drift): ``device``, ``walks``, ``success_rate``, ``pulses``, ``energy_uJ`` (seed means
   of what the relearning cost), with ``writes`` and ``decision_agreement``.
@@ -41,6 +43,7 @@ from cml_edge.report.batch import Batch
 from cml_edge.scenarios import SCENARIOS
 from cml_edge.scenarios.breakpoint import Search, get_knob
 from cml_edge.scenarios.breakpoint import breakpoint_search as breakpoint_search_of
+from cml_edge.scenarios.registry import SPACE_SCENARIOS
 from cml_edge.scenarios.runner import (
     scenario_result,
     scenario_tasks,
@@ -76,6 +79,8 @@ def reference_breakpoints() -> tuple[Breakpoint, ...]:
 
 
 TARGET = 0.95
+SPACE_DIMS = 3
+"""The dimensions of the scorecard's 3-D scenarios (the grid's N x N x N volume)."""
 
 
 @dataclass(frozen=True)
@@ -87,16 +92,22 @@ class ScorecardPlan:
     budget: str
     breakpoint_seeds: int
     devices: list[tuple[str, str, dict[str, Any]]] = field(default_factory=report_systems)
-    scenarios: tuple[str, ...] = tuple(SCENARIOS)
+    scenarios: tuple[str, ...] = tuple(n for n, s in SCENARIOS.items() if 2 in s.dims)
+    """The plane's scenarios (every scenario that runs in 2-D)."""
     breakpoints: tuple[Breakpoint, ...] = field(default_factory=reference_breakpoints)
     workers: int | None = None
+    space: tuple[str, ...] = ()
+    """Scenarios run again in 3-D (:data:`SPACE_DIMS`; the report's 3-D section), on the
+    same devices, seeds and budget."""
 
     @classmethod
     def of(cls, quick: bool) -> ScorecardPlan:
         """The reference plan (3 model seeds at the full budget, the paper's protocol;
         break points on 3 as well; benchmarks/README.md times it) or the quick one (2
-        seeds at the quick budget, every section kept)."""
-        return cls(2, "quick", 2) if quick else cls(3, "full", 3)
+        seeds at the quick budget, every section kept); both with the 3-D scenarios
+        (:data:`~cml_edge.scenarios.registry.SPACE_SCENARIOS`)."""
+        return (cls(2, "quick", 2, space=SPACE_SCENARIOS) if quick
+                else cls(3, "full", 3, space=SPACE_SCENARIOS))
 
 
 def _mean(stats: dict[str, Any] | None) -> float | None:
@@ -171,7 +182,8 @@ def run_searches(searches: list[tuple[Breakpoint, Search]], batch: Batch) -> Non
                 options, idle = search.setting(value)
                 tasks = scenario_tasks(search.scenario, search.backend, options, search.seeds,
                                        search.budget, idle,
-                                       prefix=f"bp-{bp.device}-{bp.knob}={value}-")
+                                       prefix=f"bp-{bp.device}-{bp.knob}={value}-",
+                                       dims=search.dims, moves=search.moves)
                 round_.append((search, value, options, idle, tasks))
         if not round_:
             return
@@ -197,6 +209,13 @@ def scorecard_tasks(plan: ScorecardPlan) -> dict[tuple[str, str], list[Task]]:
     return own
 
 
+def space_tasks(plan: ScorecardPlan) -> dict[tuple[str, str], list[Task]]:
+    """The tasks of each (device label, scenario) of the scorecard's 3-D scenarios."""
+    return {(label, name): scenario_tasks(name, backend, options, plan.seeds, plan.budget,
+                                          prefix=f"card-{label}-", dims=SPACE_DIMS)
+            for label, backend, options in plan.devices for name in plan.space}
+
+
 def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str, Any]:
     """The ``scorecard``, ``breakpoints`` and ``recovery`` sections (module docstring),
     and the plan they were measured with (``scorecard_plan``); on ``batch`` (else on
@@ -205,7 +224,8 @@ def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str
         with Batch(plan.workers) as batch:
             return build_scorecard(plan, batch)
     own = scorecard_tasks(plan)
-    tasks, owner = shared_training([t for ts in own.values() for t in ts])
+    own3 = space_tasks(plan)
+    tasks, owner = shared_training([t for ts in [*own.values(), *own3.values()] for t in ts])
     searches = [(bp, breakpoint_search(bp, plan)) for bp in plan.breakpoints]
     done = batch.run("scorecard", tasks)
     scorecard: list[dict[str, Any]] = []
@@ -221,9 +241,17 @@ def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str
             if name == "recovery":
                 recovery += recovery_rows(label, res)
                 dqn_retrain = res["dqn_retrain"]
+    space: list[dict[str, Any]] = []
+    for (label, name), ts in own3.items():
+        backend, options = next((b, o) for d, b, o in plan.devices if d == label)
+        results = {t.key: shared_result(t, done[owner[t.key]]) for t in ts}
+        res = scenario_result(name, backend, options, plan.seeds, plan.budget, 0.0, ts,
+                              results)
+        space += [{**row, "dims": res["dims"]} for row in scorecard_rows(label, res)]
     run_searches(searches, batch)
     breakpoints = [breakpoint_row(bp, plan, search) for bp, search in searches]
     return {"scorecard": scorecard, "breakpoints": breakpoints, "recovery": recovery,
+            **({"space_scorecard": space} if plan.space else {}),
             "dqn_retrain": dqn_retrain,
             "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,
                                "breakpoint_seeds": plan.breakpoint_seeds,

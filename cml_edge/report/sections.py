@@ -11,6 +11,7 @@ sections are in :mod:`~cml_edge.report.card`.
 from __future__ import annotations
 
 import shlex
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,20 +62,26 @@ def systems_by_label(report: dict[str, Any]) -> dict[str, int]:
 
 
 # the summary ----------------------------------------------------------------------------
-def verdict_table(report: dict[str, Any], key: str) -> Table:
-    """Every device x scenario of the scorecard: its verdict, coloured, the reason named."""
-    rows = report["scorecard"]
+def verdict_table(report: dict[str, Any], key: str, rows: list[dict[str, Any]] | None = None,
+                  command_of: Callable[[str, str], str | None] | None = None,
+                  tag: str = "") -> Table:
+    """Every device x scenario of the scorecard (or of ``rows``, each scenario's column
+    and cell key marked ``tag``, each cell's command ``command_of(device, scenario)``):
+    its verdict, coloured, the reason named."""
+    rows = report["scorecard"] if rows is None else rows
     verdicts = scenario_verdicts(rows)
     scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
-    table = Table(key, ["device", *scenarios])
-    plan = report["scorecard_plan"]
+    table = Table(key, ["device", *(f"{sc}{tag and f' ({tag})'}" for sc in scenarios)])
+    if command_of is None:
+        def command_of(device: str, sc: str) -> str | None:
+            return scenario_command(report, device, sc, report["scorecard_plan"])
     for device in dict.fromkeys(r["device"] for r in rows):
         cells: list[Cell | str] = []
         for sc in scenarios:
             v = verdicts.get((device, sc))
             cells.append("n/a" if v is None else Cell(
-                text=v.text(), verdict=v.level, key=f"{device}|{sc}",
-                title=scenario_command(report, device, sc, plan)))
+                text=v.text(), verdict=v.level, key=f"{device}|{sc}{tag and f'|{tag}'}",
+                title=command_of(device, sc)))
         table.add(device, cells)
     return table
 

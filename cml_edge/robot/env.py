@@ -148,7 +148,7 @@ class RobotNavEnv(gym.Env):
 
     def step(self, action):
         if not self.action_space.contains(action):
-            raise InputError(f"action {action!r} is not in 0..{N_ROBOT_ACTIONS - 1}")
+            raise InputError(f"action {action!r} is not in 0..{self.action_space.n - 1}")
         if self.mask[int(action)]:
             self.sim.step(int(action))
         self.t += 1

@@ -25,9 +25,9 @@ from cml_edge.core.cml import CML, CMLConfig
 from cml_edge.core.fidelity import read_snr, sample_indices, weight_error
 from cml_edge.core.step import FactoredScorer, prepare, scores, wta
 from cml_edge.protocol import STREAM_FIDELITY
-from cml_edge.robot.observation import XY, RobotCMLSettings, observe, observe_goal
+from cml_edge.robot.observation import RobotCMLSettings, observe, observe_goal
 from cml_edge.robot.planning import RobotPlanResult
-from cml_edge.robot.sim import N_ROBOT_ACTIONS, KinematicSim, RobotSim, sim_available
+from cml_edge.robot.sim import RobotSim, sim_available
 from cml_edge.robot.training import RobotTrainConfig, train_robot
 
 
@@ -40,24 +40,25 @@ def robot_twin(seed: int, sim: RobotSim, settings: RobotCMLSettings, config: Rob
 
 
 @njit(cache=True)
-def robot_replay_loop(scorer, sim, frame, normalize, goals, poses, actions, steps, agree):
+def robot_replay_loop(scorer, sim, frame, normalize, goals, poses, actions, steps, agree, n_i,
+                      n_a):
     """Per trial, how many of the device's decisions (``poses``, ``actions``) the scorer's
-    WTA among the available actions repeats, in ``agree``."""
-    n_i = 2 if frame.mode == XY else 4
+    WTA among the available actions repeats, in ``agree`` (``n_i`` inputs, ``n_a``
+    actions: the robot's or the drone's)."""
     prepare(scorer, normalize, False)
-    u = np.zeros(N_ROBOT_ACTIONS)
-    score = np.zeros(N_ROBOT_ACTIONS)
+    u = np.zeros(n_a)
+    score = np.zeros(n_a)
     o = np.zeros(n_i)
     o_star = np.zeros(n_i)
     dgo = np.zeros(n_i)
-    mask = np.zeros(N_ROBOT_ACTIONS, np.uint8)
+    mask = np.zeros(n_a, np.uint8)
     for trial in range(goals.shape[0]):
         same = 0
         for t in range(steps[trial]):
             pose = poses[trial, t]
             sim_available(sim, pose, mask)
             observe(frame, pose, pose, o)
-            observe_goal(frame, pose, goals[trial, 0], goals[trial, 1], o_star)
+            observe_goal(frame, pose, goals[trial], o_star)
             for i in range(n_i):
                 dgo[i] = o_star[i] - o[i]
             scores(scorer, o, dgo, u, score)
@@ -77,7 +78,7 @@ def robot_states(settings: RobotCMLSettings, goals: np.ndarray, result: RobotPla
         pose = np.ascontiguousarray(result.poses[trial, t])
         o, o_star = np.zeros(settings.n_i), np.zeros(settings.n_i)
         observe(frame, pose, pose, o)
-        observe_goal(frame, pose, goals[trial, 0], goals[trial, 1], o_star)
+        observe_goal(frame, pose, np.ascontiguousarray(goals[trial]), o_star)
         out.append((o, o_star - o))
     return out
 
@@ -89,10 +90,11 @@ def robot_seed_fidelity(seed: int, cml: CML, twin: CML, sim: RobotSim,
     goals = np.ascontiguousarray(goals, dtype=np.float64)
     agree = np.zeros(len(goals), np.int64)
     # a Python simulator (MuJoCo) runs the loop's plain-Python body (cml_edge.jit.routing)
-    loop = robot_replay_loop if isinstance(sim, KinematicSim) else robot_replay_loop.py_func
+    loop = robot_replay_loop if sim.compiled else robot_replay_loop.py_func
     loop(FactoredScorer.of(twin), sim.plugin, settings.frame(),
          twin.config.utility == "normalized", goals, result.poses, result.actions,
-         np.ascontiguousarray(result.steps, dtype=np.int64), agree)
+         np.ascontiguousarray(result.steps, dtype=np.int64), agree, settings.n_i,
+         sim.n_actions)
     total, same = int(result.steps.sum()), int(agree.sum())
     return {"weight_error": weight_error(cml, twin),
             "decision_agreement": same / total if total else None,

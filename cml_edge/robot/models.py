@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -58,11 +59,18 @@ class RobotModelError(InputError):
 # model files --------------------------------------------------------------------------
 def save_robot_models(path: str | Path, cmls: list[CML], meta: dict[str, Any]) -> None:
     """Write the CMLs of several seeds and their shared ``meta`` (JSON-able) atomically."""
+    save_models(path, cmls, meta, FORMAT, FORMAT_VERSION)
+
+
+def save_models(path: str | Path, cmls: list[CML], meta: dict[str, Any], fmt: str,
+                version: int) -> None:
+    """Write the CMLs of several seeds and their shared ``meta`` as format ``fmt`` (the
+    robot's, the drone's) at ``version``, atomically."""
     if not cmls:
         raise InputError("no models to save")
     arrays: dict[str, np.ndarray] = {
-        "format": np.array(FORMAT),
-        "format_version": np.array(FORMAT_VERSION),
+        "format": np.array(fmt),
+        "format_version": np.array(version),
         "meta": np.array(json.dumps({**meta, "config": cmls[0].config.to_dict(),
                                      "backend": cmls[0].backend, "n_models": len(cmls)},
                                     sort_keys=True)),
@@ -74,12 +82,8 @@ def save_robot_models(path: str | Path, cmls: list[CML], meta: dict[str, Any]) -
 
 def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
     """Load and validate a robot model file; returns its CMLs and its meta record."""
-    name = str(path)
-    data = read_npz(path, FORMAT, FORMAT_VERSION, RobotModelError,
-                    {"cml-edge-model": " (a grid model: use cml-edge evaluate)"})
-    try:
-        meta = json.loads(str(data["meta"]))
-        config = CMLConfig.from_dict(meta["config"])
+
+    def check(meta: dict[str, Any], config: CMLConfig) -> None:
         settings = RobotCMLSettings.from_dict(meta["settings"])
         RobotConfig.from_dict(meta["robot"])
         if meta["sim"] not in SIMS:
@@ -87,14 +91,34 @@ def load_robot_models(path: str | Path) -> tuple[list[CML], dict[str, Any]]:
         if config.n_i != settings.n_i:
             raise InputError(f"N_i = {config.n_i} does not fit the {settings.observation} "
                              f"observation")
+
+    return load_models(path, FORMAT, FORMAT_VERSION, RobotModelError, check,
+                       {"cml-edge-model": " (a grid model: use cml-edge evaluate)",
+                        "cml-edge-drone-model": " (a drone model: use cml-edge drone "
+                                                "evaluate)"})
+
+
+def load_models(path: str | Path, fmt: str, version: int, error: type[InputError],
+                check: Callable[[dict[str, Any], CMLConfig], None],
+                foreign: dict[str, str]) -> tuple[list[CML], dict[str, Any]]:
+    """Load and validate a model file of format ``fmt`` at ``version`` (``check`` validates
+    the world's part of the meta record; ``error`` for anything wrong, with ``foreign``'s
+    hint for a known other format); returns its CMLs and its meta record."""
+    name = str(path)
+    data = read_npz(path, fmt, version, error, foreign)
+    what = fmt.removeprefix("cml-edge-").replace("-", " ")
+    try:
+        meta = json.loads(str(data["meta"]))
+        config = CMLConfig.from_dict(meta["config"])
+        check(meta, config)
         n = int(meta["n_models"])
         if n < 1:
             raise InputError(f"n_models {n} < 1")
         cmls = [cml_from_arrays(data, config, meta["backend"], f"m{i}/") for i in range(n)]
     except PluginError as exc:  # a device of a plugin that is not loaded
-        raise RobotModelError(f"{name!r}: {exc}") from None
+        raise error(f"{name!r}: {exc}") from None
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
-        raise RobotModelError(f"{name!r} is a corrupted robot model file: {exc}") from None
+        raise error(f"{name!r} is a corrupted {what} file: {exc}") from None
     return cmls, meta
 
 

@@ -54,6 +54,7 @@ from numba import njit
 from cml_edge.core.cml import CMLConfig
 from cml_edge.core.records import Record
 from cml_edge.errors import InputError
+from cml_edge.jit.routing import routed
 from cml_edge.sizes import checked_float
 
 OBSERVATIONS = ("xy", "heading", "heading-world")
@@ -142,16 +143,33 @@ def observe_at(frame, ref, x, y, th, out):
             out[3] = frame.hscale * math.sin(th)
 
 
-@njit(cache=True, inline="always")
+# the observation plug-ins of the loops, routed by the frame's type (the robot's here, the
+# drone's in cml_edge.drone.observation) ------------------------------------------------
+@routed
 def observe(frame, ref, pose, out):
     """The observation of ``pose`` read in the frame of ``ref`` (module docstring)."""
+
+
+@routed
+def observe_goal(frame, ref, goal, out):
+    """o*: the observation of the goal (a row of the goals) read from ``ref``."""
+
+
+@njit(cache=True, inline="always")
+def robot_observe(frame, ref, pose, out):
     observe_at(frame, ref, pose[0], pose[1], pose[2], out)
 
 
 @njit(cache=True, inline="always")
-def observe_goal(frame, ref, gx, gy, out):
-    """o*: the goal (gx, gy) with the heading of ``goal_heading``, read from ``ref``."""
+def robot_observe_goal(frame, ref, goal, out):
+    """The goal (x, y) with the heading of ``goal_heading``."""
+    gx = goal[0]
+    gy = goal[1]
     th = ref[2]
     if frame.goal_heading == BEARING:
         th = math.atan2(gy - ref[1], gx - ref[0])
     observe_at(frame, ref, gx, gy, th, out)
+
+
+observe.register(RobotFrame, robot_observe)
+observe_goal.register(RobotFrame, robot_observe_goal)

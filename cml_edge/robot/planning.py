@@ -32,17 +32,16 @@ from cml_edge.errors import InputError
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.rng import stream_key, uniform
 from cml_edge.protocol import STREAM_ROBOT_GOALS
-from cml_edge.robot.observation import XY, RobotCMLSettings, observe, observe_goal
+from cml_edge.robot.observation import RobotCMLSettings, observe, observe_goal
 from cml_edge.robot.sim import (
     N_ROBOT_ACTIONS,
-    KinematicSim,
     RobotConfig,
     RobotSim,
     set_pose,
     sim_available,
+    sim_pose_at,
     sim_reset,
     sim_step,
-    wrap_angle,
 )
 
 PATHS = ("direct", "reference")
@@ -76,31 +75,46 @@ class RobotPlanResult(NamedTuple):
 
 
 @njit(cache=True)
-def polyline_length(path):
-    """Length of the (n, 3) pose path's (x, y) polyline, summed in order."""
+def polyline_length(path, dims):
+    """Length of the pose path's polyline in its first ``dims`` coordinates (the robot's
+    (x, y), the drone's (x, y, z)), summed in order."""
     total = 0.0
     for i in range(1, path.shape[0]):
-        dx = path[i, 0] - path[i - 1, 0]
-        dy = path[i, 1] - path[i - 1, 1]
-        total += math.sqrt(dx * dx + dy * dy)
+        sq = 0.0
+        for k in range(dims):
+            d = path[i, k] - path[i - 1, k]
+            sq += d * d
+        total += math.sqrt(sq)
     return total
 
 
 @njit(cache=True)
-def first_within(path, gx, gy, radius):
+def distance(pose, goal):
+    """Distance from the pose's position to the goal (a plane's by ``math.hypot``)."""
+    if goal.shape[0] == 2:
+        return math.hypot(pose[0] - goal[0], pose[1] - goal[1])
+    sq = 0.0
+    for k in range(goal.shape[0]):
+        d = pose[k] - goal[k]
+        sq += d * d
+    return math.sqrt(sq)
+
+
+@njit(cache=True)
+def first_within(path, goal, radius):
     """The first simulation step of ``path`` (after its start) within ``radius`` of the goal,
     -1 if none."""
     for i in range(1, path.shape[0]):
-        if math.hypot(path[i, 0] - gx, path[i, 1] - gy) <= radius:
+        if distance(path[i], goal) <= radius:
             return i
     return -1
 
 
-def drive_work(n_i: int) -> tuple:
-    """The planning loop's work arrays: u and the scores, the pose and the next one, o, o*
-    and o* - o (``n_i``), the available actions."""
-    return (np.zeros(N_ROBOT_ACTIONS), np.zeros(N_ROBOT_ACTIONS), np.zeros(3), np.zeros(3),
-            np.zeros(n_i), np.zeros(n_i), np.zeros(n_i), np.zeros(N_ROBOT_ACTIONS, np.uint8))
+def drive_work(n_i: int, pose_size: int = 3, n_actions: int = N_ROBOT_ACTIONS) -> tuple:
+    """The planning loop's work arrays: u and the scores (``n_actions``), the pose and the
+    next one (``pose_size``), o, o* and o* - o (``n_i``), the available actions."""
+    return (np.zeros(n_actions), np.zeros(n_actions), np.zeros(pose_size), np.zeros(pose_size),
+            np.zeros(n_i), np.zeros(n_i), np.zeros(n_i), np.zeros(n_actions, np.uint8))
 
 
 @kernel
@@ -110,17 +124,18 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, t0, t1, max_actions,
     simulator;
     ``sub`` ((steps per action + 1, 3)) receives each action's simulation steps, ``work``
     is :func:`drive_work`'s. A :func:`~cml_edge.jit.kernel.kernel`: no decision pays
-    reference counts."""
-    n_i = 2 if frame.mode == XY else 4
+    reference counts. The vehicle is the simulator's and its observation the frame's
+    (routed by type); a goal is a position, ``goals.shape[1]`` coordinates."""
     if t0 == 0:
         prepare(scorer, normalize, False)  # W_v's columns, read once per batch
     final, steps, reached, lengths, poses, actions, trails, trail_len = res
     keep = trails.shape[1] > 0
     u, score, pose, new, o, o_star, dgo, mask = work
+    n_i = o.shape[0]
+    dims = goals.shape[1]
     for trial in range(t0, t1):
         sim_reset(sim, starts[trial], pose)
-        gx = goals[trial, 0]
-        gy = goals[trial, 1]
+        goal = goals[trial]
         set_pose(poses[trial, 0], pose)
         if keep:
             set_pose(trails[trial, 0], pose)
@@ -128,25 +143,23 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, t0, t1, max_actions,
         taken = 0
         length = 0.0
         while taken < max_actions:
-            if math.hypot(pose[0] - gx, pose[1] - gy) <= radius:
+            if distance(pose, goal) <= radius:
                 break
             if sim_available(sim, pose, mask) == 0:
                 break
             observe(frame, pose, pose, o)
-            observe_goal(frame, pose, gx, gy, o_star)
+            observe_goal(frame, pose, goal, o_star)
             for i in range(n_i):
                 dgo[i] = o_star[i] - o[i]
             scores(scorer, o, dgo, u, score)
             a = wta(score, mask)
             sim_step(sim, pose, a, new, sub)
-            end = first_within(sub, gx, gy, radius) if stop_each_step else -1
+            end = first_within(sub, goal, radius) if stop_each_step else -1
             last = sub.shape[0] - 1
             if end >= 0:  # the simulation halts inside the goal circle, mid-action
                 last = end
-                new[0] = sub[end, 0]
-                new[1] = sub[end, 1]
-                new[2] = wrap_angle(sub[end, 2])
-            length += polyline_length(sub[: last + 1])
+                sim_pose_at(sim, sub[end], new)
+            length += polyline_length(sub[: last + 1], dims)
             if keep:
                 for i in range(1, last + 1):
                     set_pose(trails[trial, kept], sub[i])
@@ -157,7 +170,7 @@ def plan_loop(scorer, sim, frame, normalize, starts, goals, t0, t1, max_actions,
             set_pose(poses[trial, taken], pose)
         set_pose(final[trial], pose)
         steps[trial] = taken
-        reached[trial] = math.hypot(pose[0] - gx, pose[1] - gy) <= radius
+        reached[trial] = distance(pose, goal) <= radius
         lengths[trial] = length
         trail_len[trial] = kept
 
@@ -166,11 +179,13 @@ def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goal
                max_actions: int = MAX_ACTIONS, radius: float = GOAL_RADIUS,
                path: str = "direct", keep_paths: bool = False,
                stop: str = "action") -> RobotPlanResult:
-    """Drive the robot from each start pose (x, y, theta) to each goal (x, y)."""
+    """Drive the robot from each start pose (x, y, theta) to each goal (x, y); any
+    simulator's vehicle from its poses to its goals (:class:`~cml_edge.robot.sim.RobotSim`'s
+    ``pose_size`` and ``goal_dims``)."""
     if path not in PATHS:
         raise InputError(f"unknown path {path!r}; allowed: {', '.join(PATHS)}")
-    starts = np.ascontiguousarray(starts, dtype=np.float64).reshape(-1, 3)
-    goals = np.ascontiguousarray(goals, dtype=np.float64).reshape(-1, 2)
+    starts = np.ascontiguousarray(starts, dtype=np.float64).reshape(-1, sim.pose_size)
+    goals = np.ascontiguousarray(goals, dtype=np.float64).reshape(-1, sim.goal_dims)
     if len(starts) != len(goals):
         raise InputError(f"{len(starts)} starts but {len(goals)} goals")
     if isinstance(max_actions, bool) or int(max_actions) != max_actions or max_actions < 1:
@@ -182,15 +197,16 @@ def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goal
     max_actions = int(max_actions)
     n = len(starts)
     kept = max_actions * sim.config.steps_per_action + 1 if keep_paths else 0
-    res = RobotPlanResult(np.zeros((n, 3)), np.zeros(n, np.int64), np.zeros(n, bool),
-                          np.zeros(n), np.full((n, max_actions + 1, 3), np.nan),
-                          np.full((n, max_actions), -1, np.int64), np.zeros((n, kept, 3)),
+    size = sim.pose_size
+    res = RobotPlanResult(np.zeros((n, size)), np.zeros(n, np.int64), np.zeros(n, bool),
+                          np.zeros(n), np.full((n, max_actions + 1, size), np.nan),
+                          np.full((n, max_actions), -1, np.int64), np.zeros((n, kept, size)),
                           np.zeros(n, np.int64))
     scorer = ReferenceScorer(cml) if path == "reference" else SeamScorer.of(cml)
-    compiled = path == "direct" and isinstance(sim, KinematicSim)
+    compiled = path == "direct" and sim.compiled
     loop = plan_loop if compiled else plan_loop.py_func
-    sub = np.zeros((sim.config.steps_per_action + 1, 3))
-    work = drive_work(settings.n_i)
+    sub = np.zeros((sim.config.steps_per_action + 1, size))
+    work = drive_work(settings.n_i, size, sim.n_actions)
     for t0, t1 in chunks(0, n, max_actions * sim.config.steps_per_action):
         loop(scorer, sim.plugin, settings.frame(), cml.config.utility == "normalized", starts,
              goals, t0, t1, max_actions, float(radius), stop == "step", sub, work, res)
@@ -199,21 +215,30 @@ def plan_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, starts, goal
 
 # evaluation ---------------------------------------------------------------------------
 def draw_goals(config: RobotConfig, trials: int, seed: int,
-               margin: float = GOAL_MARGIN) -> np.ndarray:
-    """``trials`` goals uniform on [margin, arena - margin]^2 from the evaluation ``seed``."""
+               margin: float = GOAL_MARGIN, dims: int = 2,
+               stream: int = STREAM_ROBOT_GOALS) -> np.ndarray:
+    """``trials`` goals uniform on [margin, arena - margin]^dims from the evaluation
+    ``seed`` (counters dims x i + k on ``stream``; the drone's goals: dims 3 on its own)."""
     if isinstance(trials, bool) or int(trials) != trials or trials < 1:
         raise InputError(f"trials {trials!r} is not a positive integer")
-    key = stream_key(int(seed), STREAM_ROBOT_GOALS)
+    key = stream_key(int(seed), stream)
     lo, hi = margin, config.arena - margin
-    return np.array([[lo + (hi - lo) * uniform(key, 2 * i),
-                      lo + (hi - lo) * uniform(key, 2 * i + 1)] for i in range(int(trials))])
+    return np.array([[lo + (hi - lo) * uniform(key, dims * i + k) for k in range(dims)]
+                     for i in range(int(trials))])
+
+
+def distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row by row, the distance between positions (a plane's by ``np.hypot``)."""
+    d = a - b
+    return np.hypot(*d.T) if d.shape[1] == 2 else np.sqrt((d * d).sum(axis=1))
 
 
 def summarize_robot(res: RobotPlanResult, starts: np.ndarray, goals: np.ndarray) -> dict[str, Any]:
     """success_rate (within the radius), mean_actions and path_ratio (path length over the
     straight start-goal distance) over the successful trials, e_pos (Eq. 8) over all."""
-    e_pos = np.hypot(*(res.final[:, :2] - goals).T)
-    straight = np.hypot(*(goals - starts[:, :2]).T)
+    dims = goals.shape[1]
+    e_pos = distances(res.final[:, :dims], goals)
+    straight = distances(goals, starts[:, :dims])
     ok = res.reached
     ratio = res.length[ok] / np.maximum(straight[ok], 1e-12)
     return {

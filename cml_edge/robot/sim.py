@@ -51,7 +51,9 @@ from numba import njit
 
 from cml_edge.core.records import Record
 from cml_edge.errors import InputError
+from cml_edge.jit.rng import uniform
 from cml_edge.jit.routing import routed
+from cml_edge.protocol import STREAM_ROBOT_EXPLORE, STREAM_ROBOT_GOALS, STREAM_ROBOT_START
 
 N_ROBOT_ACTIONS = 8
 
@@ -240,6 +242,34 @@ def sim_step(sim, pose, a, new, path):
     and ``path`` ((steps per action + 1, 3), or (0, 3) for none) every simulation step."""
 
 
+@routed
+def sim_walk_start(sim, key, w, out):
+    """``out`` gets the start pose of training walk ``w``, drawn from ``key``'s stream."""
+
+
+@routed
+def sim_pose_at(sim, row, out):
+    """``out`` gets the pose a row of a ``sim_step`` path stands for (the robot's heading
+    wrapped): where a run stopped mid-action."""
+
+
+@njit(cache=True)
+def walk_start(key, w, lo, hi, out):
+    """Walk w's start pose: uniform over the positions the robot fits, uniform heading."""
+    base = np.uint64(3) * np.uint64(w)
+    out[0] = lo + (hi - lo) * uniform(key, base)
+    out[1] = lo + (hi - lo) * uniform(key, base + np.uint64(1))
+    out[2] = -math.pi + 2.0 * math.pi * uniform(key, base + np.uint64(2))
+
+
+@njit(cache=True)
+def pose_of_row(row, out):
+    """The pose a path row stands for: (x, y) and the heading wrapped."""
+    out[0] = row[0]
+    out[1] = row[1]
+    out[2] = wrap_angle(row[2])
+
+
 class Kinematics(NamedTuple):
     """The exact kinematics as the loops' simulator (compiled): a function of the pose."""
 
@@ -254,9 +284,10 @@ class Kinematics(NamedTuple):
 
 @njit(cache=True, inline="always")
 def set_pose(dst, src):
-    """dst[:] = src for a pose (x, y, theta), element by element: an array copied into a
-    slice allocates a temporary, which the loops, kernels (:mod:`cml_edge.jit.kernel`), cannot."""
-    for i in range(3):
+    """dst[:] = src for a pose (the robot's x, y, theta; any world's), element by element:
+    an array copied into a slice allocates a temporary, which the loops, kernels
+    (:mod:`cml_edge.jit.kernel`), cannot."""
+    for i in range(dst.shape[0]):
         dst[i] = src[i]
 
 
@@ -275,18 +306,38 @@ def kinematics_step(k, pose, a, new, path):
     drive(pose, k.twists[a, 0], k.twists[a, 1], k.dt, k.n_sub, k.lo, k.hi, new, path)
 
 
+@njit(cache=True, inline="always")
+def kinematics_walk_start(k, key, w, out):
+    walk_start(key, w, k.lo, k.hi, out)
+
+
+@njit(cache=True, inline="always")
+def kinematics_pose_at(k, row, out):
+    pose_of_row(row, out)
+
+
 sim_reset.register(Kinematics, kinematics_reset)
 sim_available.register(Kinematics, kinematics_available)
 sim_step.register(Kinematics, kinematics_step)
+sim_walk_start.register(Kinematics, kinematics_walk_start)
+sim_pose_at.register(Kinematics, kinematics_pose_at)
 
 
 # the simulators --------------------------------------------------------------------
 class RobotSim(Protocol):
-    """What the CML drives: a robot with a pose (x, y, theta) and eight actions."""
+    """What the CML drives: a robot with a pose (x, y, theta) and eight actions. The loops
+    (:mod:`cml_edge.robot.training`, :mod:`cml_edge.robot.planning`) read its sizes and
+    streams here, so another vehicle (:mod:`cml_edge.drone.sim`) is another simulator."""
 
     name: str
+    world: str  # "robot"
     config: RobotConfig
     pose: np.ndarray
+    pose_size: int  # 3: x, y, theta
+    goal_dims: int  # 2: a goal is (x, y); distances are over the pose's first goal_dims
+    n_actions: int  # 8
+    streams: tuple[int, int, int]  # walk starts, exploration, evaluation goals
+    compiled: bool  # its plug-in is a NamedTuple the compiled loops take
 
     def reset(self, pose: np.ndarray) -> None:
         """Place the robot at ``pose`` (x, y, theta), at rest."""
@@ -312,6 +363,12 @@ class _ArcMask:
     pose: np.ndarray
     twists: np.ndarray
     _work: np.ndarray
+    world = "robot"
+    pose_size = 3
+    goal_dims = 2
+    n_actions = N_ROBOT_ACTIONS
+    streams = (STREAM_ROBOT_START, STREAM_ROBOT_EXPLORE, STREAM_ROBOT_GOALS)
+    compiled = False
 
     def available(self) -> np.ndarray:
         c = self.config
@@ -325,6 +382,7 @@ class KinematicSim(_ArcMask):
     """Exact unicycle-arc kinematics (compiled)."""
 
     name = "kinematic"
+    compiled = True
 
     def __init__(self, config: RobotConfig | None = None) -> None:
         self.config = config or RobotConfig()
@@ -421,22 +479,11 @@ class MujocoSim(_ArcMask):
 
     def __init__(self, config: RobotConfig | None = None,
                  options: MujocoOptions | None = None) -> None:
-        try:
-            import mujoco
-        except ImportError:
-            raise InputError("the mujoco simulator needs the mujoco package "
-                             "(pip install 'cml-edge[robot]')") from None
-        self._mj = mujoco
         self.config = config or RobotConfig()
         self.options = options or MujocoOptions()
         c, o = self.config, self.options
-        substeps = c.dt / o.timestep
-        if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
-            raise InputError(f"mujoco timestep {o.timestep} does not divide the simulation step "
-                             f"{c.dt}")
-        self.substeps = int(round(substeps))
-        self.model = mujoco.MjModel.from_xml_string(mujoco_xml(c, o))
-        self.data = mujoco.MjData(self.model)
+        self._mj, self.model, self.data, self.substeps = load_mujoco(c.dt, o.timestep,
+                                                                     mujoco_xml(c, o))
         self.twists = c.twists()
         self.wheels = c.wheel_speeds()
         self._work = np.zeros(3)
@@ -503,9 +550,31 @@ def _mujoco_step(sim: MujocoSim, pose: np.ndarray, a: int, new: np.ndarray,
     new[:] = sim.step(a, path if path.shape[0] else None)
 
 
+def _mujoco_walk_start(sim: MujocoSim, key, w, out: np.ndarray) -> None:
+    walk_start(key, w, sim.config.lo, sim.config.hi, out)
+
+
 sim_reset.register(MujocoSim, _mujoco_reset)
 sim_available.register(MujocoSim, _mujoco_available)
 sim_step.register(MujocoSim, _mujoco_step)
+sim_walk_start.register(MujocoSim, _mujoco_walk_start)
+sim_pose_at.register(MujocoSim, lambda sim, row, out: pose_of_row(row, out))
+
+
+def load_mujoco(dt: float, timestep: float, xml: str) -> tuple[Any, Any, Any, int]:
+    """MuJoCo (imported only now: the ``robot`` extra), the model of ``xml`` and its data,
+    and how many physics steps of ``timestep`` make one simulation step ``dt``
+    (InputError when MuJoCo is missing or the timestep does not divide the step)."""
+    try:
+        import mujoco
+    except ImportError:
+        raise InputError("the mujoco simulator needs the mujoco package "
+                         "(pip install 'cml-edge[robot]')") from None
+    substeps = dt / timestep
+    if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
+        raise InputError(f"mujoco timestep {timestep} does not divide the simulation step {dt}")
+    model = mujoco.MjModel.from_xml_string(xml)
+    return mujoco, model, mujoco.MjData(model), int(round(substeps))
 
 
 def mujoco_xml(config: RobotConfig, options: MujocoOptions) -> str:

@@ -13,11 +13,13 @@ simulator (either learner; physics-bound).
 
 Randomness: walk starts on stream ``STREAM_ROBOT_START`` (counters 3w .. 3w + 2),
 exploration on ``STREAM_ROBOT_EXPLORE`` (counter w x steps + t) (:mod:`cml_edge.protocol`).
+The streams, the sizes (pose, actions) and the walk starts are the simulator's
+(:class:`~cml_edge.robot.sim.RobotSim`), the observation the frame's, so the same loop
+trains the drone (:mod:`cml_edge.drone`) on its own streams.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -33,17 +35,16 @@ from cml_edge.engine.stop import chunks
 from cml_edge.errors import InputError
 from cml_edge.jit.kernel import kernel
 from cml_edge.jit.rng import stream_key, uniform
-from cml_edge.protocol import STREAM_ROBOT_EXPLORE, STREAM_ROBOT_START
-from cml_edge.robot.observation import XY, RobotCMLSettings, observe
+from cml_edge.robot.observation import RobotCMLSettings, observe
 from cml_edge.robot.sim import (
     N_ROBOT_ACTIONS,
-    KinematicSim,
     RobotSim,
     nth_available,
     set_pose,
     sim_available,
     sim_reset,
     sim_step,
+    sim_walk_start,
 )
 
 PATHS = ("direct", "reference")
@@ -69,15 +70,6 @@ class RobotTrainConfig:
 
 
 @njit(cache=True)
-def walk_start(key, w, lo, hi, out):
-    """Walk w's start pose: uniform over the positions the robot fits, uniform heading."""
-    base = np.uint64(3) * np.uint64(w)
-    out[0] = lo + (hi - lo) * uniform(key, base)
-    out[1] = lo + (hi - lo) * uniform(key, base + np.uint64(1))
-    out[2] = -math.pi + 2.0 * math.pi * uniform(key, base + np.uint64(2))
-
-
-@njit(cache=True)
 def explore_action(mask, count, key, counter):
     """A uniformly random available action (counter-based draw); -1 if none is."""
     if count == 0:
@@ -86,22 +78,25 @@ def explore_action(mask, count, key, counter):
     return nth_available(mask, min(r, count - 1))
 
 
-def walk_work(n_i: int) -> tuple:
-    """The training loop's work arrays: the start pose, the pose and the next one, o_t and
-    o_{t+1} (``n_i``), the available actions, and an empty path (no trail kept)."""
-    return (np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(n_i), np.zeros(n_i),
-            np.zeros(N_ROBOT_ACTIONS, np.uint8), np.zeros((0, 3)))
+def walk_work(n_i: int, pose_size: int = 3, n_actions: int = N_ROBOT_ACTIONS) -> tuple:
+    """The training loop's work arrays: the start pose, the pose and the next one
+    (``pose_size``), o_t and o_{t+1} (``n_i``), the available actions (``n_actions``), and
+    an empty path (no trail kept)."""
+    return (np.zeros(pose_size), np.zeros(pose_size), np.zeros(pose_size), np.zeros(n_i),
+            np.zeros(n_i), np.zeros(n_actions, np.uint8), np.zeros((0, pose_size)))
 
 
 @kernel
-def train_loop(learner, sim, frame, keys, lo, hi, w0, w1, steps, errors, o_sq, work):
+def train_loop(learner, sim, frame, keys, w0, w1, steps, errors, o_sq, work):
     """Walks w0..w1-1 (the module docstring): the mean training error of each walk in
     ``errors`` and its mean |o_{t+1}|^2 in ``o_sq``; ``work`` from :func:`walk_work`. A
-    :func:`~cml_edge.jit.kernel.kernel`: no step pays reference counts."""
-    n_i = 2 if frame.mode == XY else 4
+    :func:`~cml_edge.jit.kernel.kernel`: no step pays reference counts. The vehicle is
+    the simulator's and its observation the frame's (routed by type: the robot's, the
+    drone's, :mod:`cml_edge.drone`)."""
     start, pose, new, o_t, o_1, mask, nopath = work
+    n_i = o_t.shape[0]
     for w in range(w0, w1):
-        walk_start(keys[0], w, lo, hi, start)
+        sim_walk_start(sim, keys[0], w, start)
         sim_reset(sim, start, pose)
         begin_walk(learner)
         total = 0.0
@@ -140,23 +135,24 @@ def train_robot(cml: CML, sim: RobotSim, settings: RobotCMLSettings, config: Rob
     if cml.config.n_i != settings.n_i:
         raise InputError(f"the CML takes N_i = {cml.config.n_i} inputs, the "
                          f"{settings.observation} observation has {settings.n_i}")
-    if cml.config.n_a != N_ROBOT_ACTIONS:
-        raise InputError(f"the CML has {cml.config.n_a} actions, the robot {N_ROBOT_ACTIONS}")
+    if cml.config.n_a != sim.n_actions:
+        raise InputError(f"the CML has {cml.config.n_a} actions, the {sim.world} "
+                         f"{sim.n_actions}")
     defer = schedule_defers(config.schedule)
     learner = ReferenceLearner(cml, defer) if path == "reference" else SeamLearner.of(cml, defer)
-    compiled = path == "direct" and isinstance(sim, KinematicSim)
+    compiled = path == "direct" and sim.compiled
     loop = train_loop if compiled else train_loop.py_func
-    keys = np.array([stream_key(seed, STREAM_ROBOT_START), stream_key(seed, STREAM_ROBOT_EXPLORE)],
+    start_stream, explore_stream = sim.streams[:2]
+    keys = np.array([stream_key(seed, start_stream), stream_key(seed, explore_stream)],
                     dtype=np.uint64)
     errors = np.zeros(config.walks)
     o_sq = np.zeros(config.walks)
-    rc = sim.config
-    work = walk_work(settings.n_i)
+    work = walk_work(settings.n_i, sim.pose_size, sim.n_actions)
     for e0 in range(0, config.walks, EPOCH):
         e1 = min(e0 + EPOCH, config.walks)
         for w0, w1 in chunks(e0, e1, config.steps):
-            loop(learner, sim.plugin, settings.frame(), keys, rc.lo, rc.hi, w0, w1,
-                 config.steps, errors, o_sq, work)
+            loop(learner, sim.plugin, settings.frame(), keys, w0, w1, config.steps, errors,
+                 o_sq, work)
         if on_walk is not None:
             on_walk(e1)
     check_weights(cml, "training", seed)

@@ -50,39 +50,49 @@ def _setting() -> tuple[RobotSim, RobotCMLSettings]:
 
 
 class RobotWorld:
-    """The robot world (module docstring)."""
+    """The robot world (module docstring). The drone's world
+    (:class:`cml_edge.drone.world.DroneWorld`) is this one with its own setting, goals
+    and start."""
 
     name = "robot"
 
+    def setting(self) -> tuple[RobotSim, Any]:
+        """The simulator and the CML's observation settings of every run."""
+        return _setting()
+
+    def problems(self, sim: RobotSim, trials: int, eval_seed: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(start poses, goals) of a part's ``trials`` from ``eval_seed``."""
+        goals = draw_goals(sim.config, trials, eval_seed)
+        return np.tile(np.asarray(BASE_POSE, dtype=np.float64), (trials, 1)), goals
+
     def train(self, seed: int, run: Mapping[str, Any], backend: str,
               backend_options: Mapping[str, Any], chip: int | None) -> Trained:
-        sim, settings = _setting()
+        sim, settings = self.setting()
         cml = CML.create(settings.cml_config(), backend, seed, chip, **backend_options)
         info = train_robot(cml, sim, settings, RobotTrainConfig(run["walks"], run["steps"]),
                            seed, path=PATH)
         return Trained(cml, info["train_error"])
 
     def twin(self, seed: int, run: Mapping[str, Any]) -> CML:
-        sim, settings = _setting()
+        sim, settings = self.setting()
         return robot_twin(seed, sim, settings, RobotTrainConfig(run["walks"], run["steps"]),
                           settings.cml_config())
 
     def relearn(self, cml: CML, twin: CML, seed: int, run: Mapping[str, Any], walks: int,
                 done: int) -> None:
-        raise InputError(f"the robot does not relearn in situ (relearn_walks {done + walks}; "
+        raise InputError(f"the {self.name} does not relearn in situ (relearn_walks {done + walks}; "
                          f"allowed: 0)")
 
     def plan(self, cml: CML, part: Mapping[str, Any], run: Mapping[str, Any]) -> RobotPlan:
-        sim, settings = _setting()
-        trials = part["trials"]
-        goals = draw_goals(sim.config, trials, part["eval_seed"])
-        starts = np.tile(np.asarray(BASE_POSE, dtype=np.float64), (trials, 1))
+        sim, settings = self.setting()
+        starts, goals = self.problems(sim, part["trials"], part["eval_seed"])
         return RobotPlan(starts, goals, plan_robot(cml, sim, settings, starts, goals,
                                                    path=PATH))
 
     def summarise(self, seed: int, cml: CML, twin: CML, part: Mapping[str, Any],
                   planned: RobotPlan) -> dict[str, Any]:
-        sim, settings = _setting()
+        sim, settings = self.setting()
         starts, goals, res = planned
         summary = summarize_robot(res, starts, goals)
         return {"name": part["name"], "trials": part["trials"], "eval_seed": part["eval_seed"],

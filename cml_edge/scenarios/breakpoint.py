@@ -23,6 +23,10 @@ value, success) in the order it ran. Bisection assumes success falls monotonical
 along the grid; the evaluations are all reported so a reader can see where it did not.
 
 Success of a scenario is its worst part's ``success_rate`` (or the named ``part``'s).
+
+In space (``dims`` 3, ``moves``; :meth:`cml_edge.scenarios.registry.Scenario.runs`) the
+same search runs the scenario's 3-D form: ``cml-edge breakpoint --dims 3 --knob KNOB
+--scenario paper`` is the knob's break point in the 30 x 30 x 30 volume.
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from cml_edge.backends import DEVICES, Knob, backend_spec
 from cml_edge.backends.base import MAX_IDLE_S
 from cml_edge.errors import InputError
 from cml_edge.scenarios.registry import BUDGETS, get
-from cml_edge.scenarios.runner import run_scenario
+from cml_edge.scenarios.runner import in_space, run_scenario
 
 GRID_POINTS = 17
 """Grid values per range: 2^4 + 1, so bisection takes at most 4 evaluations between the
@@ -186,6 +190,10 @@ class Search:
     grid: list[float]
     bisection: Bisection
     evaluations: list[dict[str, Any]] = field(default_factory=list)
+    dims: int | None = None
+    """The scenario's dimensions (None: its default)."""
+    moves: str = "king"
+    """The grid's move set."""
 
     def setting(self, value: float) -> tuple[dict[str, Any], float]:
         """(device options, idle seconds) of an evaluation at knob ``value``."""
@@ -208,7 +216,8 @@ class Search:
                "field": self.knob.field, "good": self.knob.good, "target": self.target,
                "range": [self.lo, self.hi], "grid": self.grid, "seeds": int(self.seeds),
                "seed_list": list(range(int(self.seeds))), "budget": self.budget,
-               "part": self.part, "evaluations": self.evaluations}
+               "part": self.part, "evaluations": self.evaluations,
+               **in_space(self.scenario, self.dims, self.moves)}
         if not b.bracketed:
             return {**out, "value": None, "bracket": None, "found": False,
                     "note": no_break_point(self.knob, self.lo, self.hi, self.target,
@@ -221,13 +230,17 @@ class Search:
 def breakpoint_search(scenario: str, backend: str, knob: str,
                       options: dict[str, Any] | None = None, target: float = 0.95,
                       seeds: int = 3, value_range: tuple[float, float] | None = None,
-                      budget: str = "full", part: str | None = None) -> Search:
+                      budget: str = "full", part: str | None = None,
+                      dims: int | None = None, moves: str = "king") -> Search:
     """The :class:`Search` of a break point, every input checked (InputError naming the
-    first bad one) before any run."""
+    first bad one) before any run; ``dims`` and ``moves``: the scenario's world (None:
+    its default dimensions)."""
     scen = get(scenario)
+    scen.space(dims, moves)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; known: {', '.join(BUDGETS)}")
-    names = [p["name"] for _, run in scen.runs(BUDGETS[budget]) for p in run["parts"]]
+    names = [p["name"] for _, run in scen.runs(BUDGETS[budget], dims, moves)
+             for p in run["parts"]]
     if part is not None and part not in names:
         raise InputError(f"scenario {scenario!r} has no part {part!r}; its parts: "
                          f"{', '.join(dict.fromkeys(names))}")
@@ -261,7 +274,7 @@ def breakpoint_search(scenario: str, backend: str, knob: str,
     if len(grid) < 2:
         raise InputError(f"range {lo!r} {hi!r} holds fewer than two values of {knob!r}")
     return Search(scenario, backend, dict(options or {}), k, target, int(seeds), budget, part,
-                  lo, hi, value_range is None, grid, Bisection(grid))
+                  lo, hi, value_range is None, grid, Bisection(grid), dims=dims, moves=moves)
 
 
 def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, Any] | None = None,
@@ -269,19 +282,20 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
                     | None = None, budget: str = "full", part: str | None = None,
                     out: str | Path | None = None, workers: int | None = None,
                     scheduler: str | None = None, command: str | None = None,
-                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None
-                    ) -> dict[str, Any]:
+                    restart: bool = False, on_start: Callable[[list[str]], None] | None = None,
+                    dims: int | None = None, moves: str = "king") -> dict[str, Any]:
     """The break point of ``knob`` for ``scenario`` on ``backend`` (module docstring).
     ``options``: the device's other settings (the knob's field overrides them); ``out``:
     each evaluation's sweep under ``out/KNOB=VALUE`` (resumable; a sweep of other settings
     there is refused unless ``restart``, which starts each over). ``on_start`` is called
     once the inputs are checked, before the first run, with notes the user should read
-    first."""
+    first. ``dims`` and ``moves``: the scenario's world (:func:`breakpoint_search`)."""
     search = breakpoint_search(scenario, backend, knob, options, target, seeds, value_range,
-                               budget, part)
+                               budget, part, dims, moves)
     if on_start is not None:
         on_start([TINY_NOTE] if budget == "tiny" else [])
     b = search.bisection
+    space = {} if (dims or 2, moves) == (2, "king") else {"dims": dims, "moves": moves}
     while b.pending:
         passed = []
         for k in b.pending:
@@ -289,7 +303,7 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
             opts, idle = search.setting(value)
             res = run_scenario(scenario, backend, opts, seeds, budget,
                                Path(out) / f"{knob}={value}" if out is not None else None,
-                               workers, scheduler, idle_s=idle, restart=restart)
+                               workers, scheduler, idle_s=idle, restart=restart, **space)
             passed.append(search.record(value, res))
         b.record(passed)
     return search.result(command)

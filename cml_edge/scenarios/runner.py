@@ -48,7 +48,7 @@ from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.grid.chips import DEFAULT_YIELD_TARGET, check_chips, pool_chips
 from cml_edge.io.files import atomic_write_text
-from cml_edge.scenarios.registry import BUDGETS, get
+from cml_edge.scenarios.registry import BUDGETS, PLANE, get
 from cml_edge.scenarios.tasks import TASK_FN
 
 PART_KEYS = ("size", "obstacles", "map", "scen", "planner", "max_steps", "eval_arena",
@@ -57,11 +57,15 @@ PART_KEYS = ("size", "obstacles", "map", "scen", "planner", "max_steps", "eval_a
 
 def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
                    budget: str = "full", idle_s: float = 0.0,
-                   chips: Sequence[int] | None = None, prefix: str = "") -> list[Task]:
+                   chips: Sequence[int] | None = None, prefix: str = "",
+                   dims: int | None = None, moves: str = "king") -> list[Task]:
     """The (run x seed) tasks of scenario ``name`` on the device (checked here); with
     ``chips`` (chip seeds), the (chip x run x seed) tasks; ``prefix`` starts every key
-    (tasks of several scenarios or devices in one run folder)."""
+    (tasks of several scenarios or devices in one run folder); in ``dims`` dimensions
+    with the ``moves`` set (None: the scenario's default;
+    :meth:`~cml_edge.scenarios.registry.Scenario.runs`)."""
     scenario = get(name)
+    scenario.space(dims, moves)
     if budget not in BUDGETS:
         raise InputError(f"unknown budget {budget!r}; allowed: {', '.join(BUDGETS)}")
     if isinstance(seeds, bool) or int(seeds) != seeds or seeds < 1:
@@ -73,15 +77,24 @@ def scenario_tasks(name: str, backend: str, options: dict[str, Any], seeds: int,
         base["idle_s"] = float(idle_s)
     on = [("", {})] if chips is None else [(f"-c{c}", {"chip": int(c)}) for c in chips]
     return [Task(f"{prefix}{run}{tag}-s{seed}", TASK_FN, {**base, **params, **chip, "seed": seed})
-            for tag, chip in on for run, params in scenario.runs(BUDGETS[budget])
+            for tag, chip in on for run, params in scenario.runs(BUDGETS[budget], dims, moves)
             for seed in range(int(seeds))]
 
 
+def in_space(name: str, dims: int | None, moves: str) -> dict[str, Any]:
+    """``dims`` and ``moves`` of a scenario run off the plane's king moves, for its
+    settings and its result (the plane's say neither, as before a third dimension)."""
+    space = get(name).space(dims, moves)
+    return {} if space == PLANE else {"dims": space[0], "moves": space[1]}
+
+
 def run_settings(name: str, backend: str, options: dict[str, Any], budget: str,
-                 idle_s: float) -> dict[str, Any]:
+                 idle_s: float, dims: int | None = None, moves: str = "king"
+                 ) -> dict[str, Any]:
     """What every task of a scenario run shares (its run folder's settings)."""
     return {"run": "scenario", "scenario": name, "world": get(name).world, "backend": backend,
-            "backend_options": dict(options), "budget": budget, "idle_s": float(idle_s)}
+            "backend_options": dict(options), "budget": budget, "idle_s": float(idle_s),
+            **in_space(name, dims, moves)}
 
 
 def _spread(values: list[Any]) -> dict[str, Any]:
@@ -143,7 +156,8 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
                  progress: Callable[[int, int], None] | None = None, idle_s: float = 0.0,
                  command: str | None = None, chips: int | None = None, first_chip: int = 0,
                  yield_target: float = DEFAULT_YIELD_TARGET,
-                 restart: bool = False) -> dict[str, Any]:
+                 restart: bool = False, dims: int | None = None,
+                 moves: str = "king") -> dict[str, Any]:
     """Run scenario ``name`` on ``backend`` with ``options`` (the device's config fields,
     e.g. ``{"preset": "pcm"}``) for model seeds 0..``seeds``-1 at ``budget`` (a key of
     :data:`~cml_edge.scenarios.registry.BUDGETS`); ``idle_s`` more seconds idle before
@@ -153,19 +167,22 @@ def run_scenario(name: str, backend: str = "float", options: dict[str, Any] | No
     chip seeds ``first_chip`` .. ``first_chip + chips - 1``, each part with its yield at
     ``yield_target``. ``out`` is a run folder of the scenario, device, its options, the
     budget and ``idle_s`` (:mod:`cml_edge.engine.runs`: other settings are refused unless
-    ``restart``; more seeds or chips resume it). Returns the JSON-ready result (module
-    docstring)."""
+    ``restart``; more seeds or chips resume it). ``dims`` and ``moves``: the world's
+    dimensions and move set (None: the scenario's default; the result then says them, off
+    the plane's king moves). Returns the JSON-ready result (module docstring)."""
     options = dict(options or {})
     chip_seeds = None
     if chips is not None:
         check_chips(chips, yield_target, first_chip)
         chip_seeds = list(range(first_chip, first_chip + chips))
-    tasks = scenario_tasks(name, backend, options, seeds, budget, idle_s, chip_seeds)
+    tasks = scenario_tasks(name, backend, options, seeds, budget, idle_s, chip_seeds,
+                           dims=dims, moves=moves)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="cml-edge-scenario-") as tmp:
         results = run_sweep(tasks, out or tmp, workers=workers, scheduler=scheduler,
                             progress=progress, resumable=out is not None,
-                            settings=run_settings(name, backend, options, budget, idle_s),
+                            settings=run_settings(name, backend, options, budget, idle_s,
+                                                  dims, moves),
                             restart=restart)
     result = scenario_result(name, backend, options, seeds, budget, idle_s, tasks, results,
                              yield_target)
@@ -217,6 +234,9 @@ def scenario_result(name: str, backend: str, options: dict[str, Any], seeds: int
         "parts": pooled}
     if chip_seeds is not None:
         result["chip_seeds"] = chip_seeds
+    run = tasks[0].params.get("run", {}) if tasks else {}
+    if "dims" in run:  # off the plane's king moves (:func:`in_space`)
+        result.update({"dims": run["dims"], "moves": run["moves"]})
     if name == "recovery":
         from cml_edge.costs.dqn import dqn_retrain_estimate
 

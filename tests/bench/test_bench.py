@@ -128,3 +128,21 @@ def test_ratios_divide_figures_of_one_run():
     assert r["float64 direct / fused"] == {"train": 2.0, "plan": 2.0, "goal": 1.3}
     assert r["factored / fused factored"] == {"train": 2.0, "goal": 1.1}
     assert r["int8 / float64 direct"] == {"train": 3.0, "plan": 1.0, "goal": 2.0}
+
+
+def test_the_step_per_synapse_in_space():
+    from cml_edge.bench.timing import GOALS, per_synapse, synapse_counts
+
+    assert synapse_counts(3, "king") == (4608, 14080)
+    assert synapse_counts(3, "face") == (4608, (3 + 12) * 256)
+    r = per_synapse({"train_step_us_random": 2.0}, {"train_step_us_random": 9.0},
+                    (4608, 14080))
+    assert r["train_step_ns_per_synapse_2d"] == pytest.approx(2000 / 4608)
+    assert r["train_step_ns_per_synapse_3d"] == pytest.approx(9000 / 14080)
+    assert r["ratio"] == pytest.approx((9000 / 14080) / (2000 / 4608))
+    assert r["goal"] == GOALS["space"] == 2.0
+
+
+def test_a_training_step_in_space_is_timed():
+    arena = GridArena.empty(10, 3)
+    assert time_train(arena, TrainConfig(1, 50), 0, "int8", {}, "direct") > 0

@@ -32,7 +32,7 @@ EMULATE_KEYS = {
     "idle_s", "max_steps", "obstacles", "overhead_geodesic_mean", "overhead_mean",
     "overhead_median", "path", "per_seed", "planner", "read_snr", "schedule", "seed_list",
     "seeds", "steps", "success_rate", "success_rate_connected", "train_error", "trials",
-    "utility", "walks", "wall_time_s", "weight_error", "timings"}
+    "utility", "walks", "wall_time_s", "weight_error", "timings", "costs"}
 PER_SEED_KEYS = {
     "seed", "trials", "success_rate", "e_pos_mean", "e_pos_median", "overhead_mean",
     "overhead_median", "connected_pairs", "success_rate_connected", "overhead_geodesic_mean",

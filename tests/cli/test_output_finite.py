@@ -34,7 +34,7 @@ def test_train_whose_weights_end_nan_fails_and_writes_no_model(cli, tmp_path, mo
 
 @pytest.mark.parametrize("json_flag", [["--json"], []])
 def test_a_nan_metric_is_never_printed_nor_written(cli, tmp_path, monkeypatch, json_flag):
-    def protocol(p, progress=None):
+    def protocol(p, progress=None, records=None):
         return {"backend": p.backend, "success_rate": 1.0, "read_snr": {"W_q": {"mean": np.nan}}}
 
     monkeypatch.setattr(grid_cli, "run_protocol", protocol)
@@ -46,7 +46,7 @@ def test_a_nan_metric_is_never_printed_nor_written(cli, tmp_path, monkeypatch, j
 
 
 def test_a_result_with_null_is_strict_json(cli, tmp_path, monkeypatch):
-    def protocol(p, progress=None):
+    def protocol(p, progress=None, records=None):
         return {"backend": p.backend, "overhead_mean": None, "success_rate": 0.0}
 
     monkeypatch.setattr(grid_cli, "run_protocol", protocol)

@@ -138,7 +138,7 @@ def test_the_quick_report_runs_every_section_at_the_quick_budget(report):
     assert row["train_steps"] == quick.walks * quick.steps  # the ledger's model too
 
 
-UNITS = ("", "%", "B", "uJ", "nJ", "pJ", "s", "pulses")
+UNITS = ("", "%", "B", "uJ", "nJ", "pJ", "s", "pulses", "x")  # x: the 3-D section's ratios
 """The units the report's tables print a number of report.json in."""
 
 
@@ -269,7 +269,8 @@ SMALL = {"quick": True, "systems": [("float32", "float32", {})], "sweeps": [],
          "scorecard": ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {})],
                                     scenarios=("paper", "clutter"), breakpoints=(
                                         Breakpoint("float32", "float32", {}, "drift_time"),),
-                                    workers=1)}
+                                    workers=1),
+         "space": False}  # the 3-D section's tasks: tests/report/test_report_space.py
 
 
 def _measured(rep):

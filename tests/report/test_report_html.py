@@ -33,7 +33,9 @@ def check_cells(seen: dict, reports: dict[str, dict]) -> int:
     shows it as :func:`human` does; a computed one (``A / B``, ``A - B``) its result; a
     verdict the one the thresholds give. Returns how many numbers were checked."""
     verdicts = {**scenario_verdicts(reports["new"]["scorecard"]),
-                **part_verdicts(reports["new"]["scorecard"])}
+                **part_verdicts(reports["new"]["scorecard"]),
+                **{(*k, "3-D"): v for k, v in scenario_verdicts(  # the 3-D section's
+                    (reports["new"].get("space") or {}).get("scorecard", [])).items()}}
     checked = 0
     for c in seen["cells"]:
         where = f"{c['table']}, {c['row']}: {c['text']!r}"

@@ -24,7 +24,7 @@ PART_KEYS = {"part", "success_rate", "overhead_mean", "weight_error", "decision_
              "read_snr", "success_rate_seeds", "overhead_mean_seeds", "seeds", "per_seed"}
 PARTS = {"paper": ["paper"], "in-situ": ["in-situ"], "retention": [n for n, _ in AGES],
          "clutter": ["obst300", "obst400"], "maps": ["maze", "rooms", "utrap"],
-         "large": ["60x60", "120x120"], "robot": ["robot"],
+         "large": ["60x60", "120x120"], "robot": ["robot"], "drone": ["drone"],
          "recovery": [f"K{k}" for k in RECOVERY_WALKS]}
 
 
@@ -33,7 +33,7 @@ def _numbers(result):
     return {k: v for k, v in result.items() if k not in ("wall_time_s", "out", "command")}
 
 
-def test_the_eight_scenarios_are_registered():
+def test_the_nine_scenarios_are_registered():
     assert list(SCENARIOS) == list(PARTS)
     for s in SCENARIOS.values():
         assert len(s.doc) > 100

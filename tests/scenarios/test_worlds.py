@@ -35,6 +35,7 @@ def test_every_world_meets_the_protocol_and_is_named():
         world = get_world(name)
         assert world.name == name
         assert all(callable(getattr(world, m)) for m in methods)
+    # every world has a scenario, and every scenario's world is registered
     assert {s.world for s in SCENARIOS.values()} == set(WORLDS)
     with pytest.raises(InputError, match="unknown world 'sea'; allowed: grid, robot"):
         get_world("sea")
@@ -60,3 +61,17 @@ def test_the_same_json_as_before(name):
     result = run_scenario(name, "int8", {}, seeds=1, budget="tiny", workers=1)
     # keys, order and values: integers exact, floats as a seed promises across machines
     assert differences(json.loads(json.dumps(_numbers(result))), _numbers(GOLDEN[name])) == []
+
+
+def test_the_drone_scenario_flies_in_space_only(tmp_path, cli):
+    (task,) = scenario_tasks("drone", "int8", {}, 1, "tiny")
+    assert task.params["world"] == "drone"
+    with pytest.raises(InputError, match="scenario 'drone' runs in 3-D only, not in 2-D"):
+        scenario_tasks("drone", "float", {}, 1, "tiny", dims=2)
+    code, out, err = cli("scenario", "drone", "--backend", "int8", "--seeds", 1, "--quick",
+                         "--out", tmp_path / "drone", "--json")
+    assert code == 0, err
+    result = json.loads(out)
+    (part,) = result["parts"]
+    assert (result["world"], part["part"], part["trials"]) == ("drone", "drone", 50)
+    assert 0.0 <= part["success_rate"] <= 1.0 and part["path_ratio"] >= 1.0
