@@ -118,7 +118,7 @@ def _sensors(args: argparse.Namespace) -> Sensors | None:
         return None
     sensors = Sensors(args.sensors, args.sensor_range, args.sensor_weight, args.sensor_goal,
                       args.train_obstacles)
-    sensors.check(args.dims, args.moves, args.arena)
+    sensors.check(args.dims, args.arena)
     return sensors
 
 
@@ -305,7 +305,7 @@ def _model_world(cml: CML, record: dict[str, Any], model: str
         raise InputError(f"{model!r} records sensors {sensed!r} (allowed: a JSON object)")
     sensors = Sensors.from_dict(sensed) if sensed is not None else None
     if sensors is not None:
-        sensors.check(dims, moves, int(record.get("arena", 30)))
+        sensors.check(dims, int(record.get("arena", 30)))
     n_i = dims + (sensors.k if sensors else 0)
     n_a = len(move_table(dims, moves))
     if (cml.config.n_i, cml.config.n_a) != (n_i, n_a):

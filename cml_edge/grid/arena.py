@@ -187,7 +187,7 @@ class GridArena:
                              f"{(self.size,) * 2} or {(self.size,) * 3}")
         move_table(dims, self.moves)
         if self.sensors is not None:
-            self.sensors.check(dims, self.moves, self.size)
+            self.sensors.check(dims, self.size)
 
     def sensing(self, sensors: Sensors | None) -> GridArena:
         """This arena with ``sensors`` read on it."""
@@ -218,7 +218,7 @@ class GridArena:
         """The arena a model with range ``sensors`` trains on: side ``size``, its obstacles
         placed from the sensors' layout seed (:mod:`cml_edge.grid.sensors`), the sensors
         read on it."""
-        sensors.check(dims, moves, size)
+        sensors.check(dims, size)
         return cls.with_obstacles(size, sensors.obstacles_on(size, dims), sensors.layout_seed,
                                   dims, moves).sensing(sensors)
 

@@ -95,7 +95,7 @@ class Sensors(Record):
                                integer("training obstacles", self.train_obstacles, 0))
         object.__setattr__(self, "layout_seed", integer("layout seed", self.layout_seed, 0))
 
-    def check(self, dims: int, moves: str, size: int) -> None:
+    def check(self, dims: int, size: int) -> None:
         """InputError unless K is a direction count of the arena and the training
         obstacles leave two free cells."""
         allowed = sensor_counts(dims)
