@@ -11,6 +11,8 @@
 - :mod:`~cml_edge.cli.lava`: ``lava verify`` (a loihi2 model run in Lava itself);
 - :mod:`~cml_edge.cli.args`: what they share (argument types, the progress bar, the
   synaptic-array options);
+- :mod:`~cml_edge.cli.vehicle`: the robot's and the drone's ``train | evaluate |
+  navigate`` parsers, built by one function;
 - :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
 - :mod:`~cml_edge.cli.compiling`: ``compile`` (a device's kernels ahead of any run), the
   warm-up that compiles a run's parts on every core first, and the line on stderr while

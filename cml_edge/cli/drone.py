@@ -9,27 +9,10 @@ from typing import Any
 import numpy as np
 
 from cml_edge import __version__
-from cml_edge.cli.args import (
-    Progress,
-    backend_options,
-    command_line,
-    finite_float,
-    nonneg_int,
-    positive_float,
-    positive_int,
-)
+from cml_edge.cli.args import Progress, backend_options, command_line, finite_float
 from cml_edge.cli.output import device_label, fidelity_rows, labelled, num, plural, secs, table
-from cml_edge.cli.robot import (
-    _robot_rows,
-    _seed_range,
-    add_drive_options,
-    add_run_options,
-    add_training_options,
-    evaluate_pooled,
-    load_pooled,
-    set_utility,
-)
-from cml_edge.core.cml import UTILITIES
+from cml_edge.cli.robot import _robot_rows, _seed_range, evaluate_pooled, load_pooled, set_utility
+from cml_edge.cli.vehicle import Vehicle, add_drive_options, add_run_options, add_vehicle_parsers
 from cml_edge.drone.models import (
     BASE,
     GOAL_RADIUS,
@@ -40,7 +23,7 @@ from cml_edge.drone.models import (
     save_drone_models,
 )
 from cml_edge.drone.observation import DEFAULT_UTILITY, DroneCMLSettings
-from cml_edge.drone.sim import ENDS, SIMS, DroneConfig, DroneMujocoOptions, make_drone_sim
+from cml_edge.drone.sim import ENDS, DroneConfig, DroneMujocoOptions, make_drone_sim
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.io.files import writable_file
@@ -48,18 +31,14 @@ from cml_edge.robot.models import train_models
 from cml_edge.robot.planning import plan_robot, summarize_robot
 from cml_edge.robot.training import RobotTrainConfig
 
-MUJOCO = ("timestep", "kv")
+MUJOCO = {"timestep": "physics step, s", "kv": "velocity servo gain, N s/m"}
+"""The MuJoCo options of ``--sim mujoco``, each with its help."""
 
 
-def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
-    tail = "default kinematic" if default else "default: the one the model was trained on"
-    p.add_argument("--sim", choices=SIMS, default=default,
-                   help=f"kinematic (exact, compiled) or mujoco (physics; the robot extra); "
-                        f"{tail}")
-    g = p.add_argument_group("mujoco options")
-    for f, helptext in (("timestep", "physics step, s"), ("kv", "velocity servo gain, N s/m")):
-        g.add_argument(f"--mujoco-{f}", type=positive_float, default=None, metavar="X",
-                       help=f"{helptext} (default {getattr(DroneMujocoOptions(), f)})")
+def _add_training(t: argparse.ArgumentParser) -> None:
+    t.add_argument("--ends", choices=ENDS, default="rest",
+                   help="each action ends at rest (default: the CML's model exact) or at "
+                        "its commanded velocity")
 
 
 def _add_planning(p: argparse.ArgumentParser) -> None:
@@ -71,42 +50,17 @@ def _add_planning(p: argparse.ArgumentParser) -> None:
 
 def add_parsers(subparsers) -> None:
     """``drone train|evaluate|navigate``."""
-    p = subparsers.add_parser("drone", help="a drone in a walled 3-D volume (paper section 5)")
-    p.set_defaults(run=cmd_drone)
-    sub = p.add_subparsers(dest="drone_command", required=True, parser_class=type(p))
-
-    t = sub.add_parser("train", help="train CMLs by random flights of the drone and save them")
-    _add_sim(t, "kinematic")
-    t.add_argument("--ends", choices=ENDS, default="rest",
-                   help="each action ends at rest (default: the CML's model exact) or at "
-                        "its commanded velocity")
-    t.add_argument("--utility", choices=UTILITIES, default=DEFAULT_UTILITY,
-                   help=f"planning utility stored with the model ({DEFAULT_UTILITY})")
-    add_training_options(t)
-    t.set_defaults(show=show_drone_train)
-
-    e = sub.add_parser("evaluate", help="fly to random goals from the base")
-    e.add_argument("model", nargs="+", help="drone model file(s) (.npz); the models of "
-                   "several files (trained alike) are pooled")
-    _add_sim(e, None)
-    e.add_argument("--trials", type=positive_int, default=100, help="random goals (100)")
-    e.add_argument("--seeds", type=positive_int, default=None,
-                   help="use the first N models (default all)")
-    _add_planning(e)
-    e.set_defaults(show=show_drone_evaluate)
-
-    n = sub.add_parser("navigate", help="fly to a few goals and plot them from three sides")
-    n.add_argument("model", help="drone model file (.npz)")
-    _add_sim(n, None)
-    n.add_argument("--goal", type=finite_float, nargs=3, metavar=("X", "Y", "Z"), default=None,
-                   help="one goal (default: --goals random goals)")
-    n.add_argument("--goals", type=positive_int, default=10,
-                   help="random goals from the evaluation seed (10)")
-    n.add_argument("--model-index", type=nonneg_int, default=0,
-                   help="which model of the file flies (0)")
-    n.add_argument("--plot", default=None, help="write a PNG of the flights in three views")
-    n.set_defaults(show=show_drone_navigate)
-    _add_planning(n)
+    add_vehicle_parsers(subparsers, Vehicle(
+        name="drone", help="a drone in a walled 3-D volume (paper section 5)", run=cmd_drone,
+        commands={"train": ("train CMLs by random flights of the drone and save them",
+                            show_drone_train),
+                  "evaluate": ("fly to random goals from the base", show_drone_evaluate),
+                  "navigate": ("fly to a few goals and plot them from three sides",
+                               show_drone_navigate)},
+        plot="write a PNG of the flights in three views", moves="flies",
+        axes=("X", "Y", "Z"), exact="exact", mujoco=MUJOCO,
+        mujoco_defaults=DroneMujocoOptions(), utility=DEFAULT_UTILITY,
+        train_options=_add_training, planning_options=_add_planning))
 
 
 def _make_sim(name: str, drone: DroneConfig, args: argparse.Namespace,

@@ -41,7 +41,14 @@ median time per unit:
   the simplified reward's seed 0), 2 ms;
 - :data:`BASE_BYTES`: the interpreter, NumPy and Numba with their kernels loaded, 400 MB.
 
-A scenario's or a break point's sizes are its budget's (walks x steps a model and its
+Those steps are the plane's, with its king moves. In another world (``--dims 3``,
+``--moves face``) a training and a planning step are priced in proportion to the CML's
+weights there (:func:`_weights_ratio`: 14,080 against 4,608 in the volume with its 26 king
+moves, 3.1 times; ``cml-edge bench --dims 3`` measured the volume's training step at 2.0-4.6
+times the plane's and its planning step at 1.2-2.9 times, benchmarks/README.md).
+
+A scenario's or a break point's sizes are its budget's in the world it runs in (its runs
+there, :meth:`~cml_edge.scenarios.registry.Scenario.runs`: walks x steps a model and its
 float64 twin, trials x step budget in each part); a break point evaluates
 :data:`BREAKPOINT_RUNS` knob values at most.
 """
@@ -123,13 +130,16 @@ def estimate(args: Any) -> Estimate:
     """The estimate of the command ``args`` (an argparse namespace) from its sizes: any
     of ``seeds``, ``chips``, ``walks``, ``steps``, ``trials``, ``max_steps``, ``arena``
     (side^``dims`` cells) and ``devices`` it has (a missing size counts 1, or its default;
-    a scenario or sweep trains the paper's 100 walks x 900 steps a model)."""
+    a scenario or sweep trains the paper's 100 walks x 900 steps a model), each step priced
+    in the world of ``dims`` and ``moves`` (:func:`_weights_ratio`; a scenario's: its
+    runs')."""
     seeds, chips = _get(args, "seeds"), _get(args, "chips")
     if "navigate" in (getattr(args, "robot_command", None),  # goals one after another
                       getattr(args, "drone_command", None)):
         args = SimpleNamespace(**{**vars(args), "trials": _get(args, "goals")})
     models = seeds * chips
-    step_s, repeat, cores = TRAIN_STEP_S, 1.0, float(usable_cores())
+    step_s, cores = TRAIN_STEP_S, float(usable_cores())
+    scale = _weights_ratio(_get(args, "dims", 2), getattr(args, "moves", None))
     trials = _get(args, "trials", 0)
     budget = _get(args, "max_steps", _get(args, "max_actions", PLAN_BUDGET))
     plans, plan_label = trials * budget, f"--trials {trials:g} x a step budget of {budget:g}"
@@ -143,7 +153,7 @@ def estimate(args: Any) -> Estimate:
         if args.dqn_command != "train":  # evaluate: the trained seeds' plans only
             walks = steps = 0.0
     elif getattr(args, "command", None) in ("scenario", "breakpoint"):
-        walks, steps, plans, repeat, budget_name = _scenario_sizes(args)
+        walks, steps, plans, scale, budget_name = _scenario_sizes(args)
         plan_label = f"--budget {budget_name}"
     elif hasattr(args, "seeds") and not hasattr(args, "steps"):  # a sweep
         walks, steps = DEFAULT_WALKS, DEFAULT_STEPS
@@ -159,17 +169,32 @@ def estimate(args: Any) -> Estimate:
         f"--arena {side:g}" + (" --dims 3" if dims == 3 else ""): side ** dims * CELL_BYTES,
         f"--devices {devices:g}": devices * DEVICE_BYTES,
     }
-    seconds = (models * repeat * (walks * steps * step_s + plans * PLAN_STEP_S) / workers
+    seconds = (models * scale * (walks * steps * step_s + plans * PLAN_STEP_S) / workers
                + devices * DEVICE_S)
     ranked = tuple(sorted(((k, v) for k, v in terms.items() if v > 0), key=lambda kv: -kv[1]))
     return Estimate(BASE_BYTES + sum(terms.values()), seconds, ranked, int(workers))
 
 
+def _weights_ratio(dims: float, moves: str | None) -> float:
+    """The CML's weights in the ``dims``-D world with the ``moves`` set (None: king) over
+    the plane's with its king moves, where the per-step costs were measured (module
+    docstring)."""
+    moves = moves or "king"
+    if (dims, moves) == (2, "king"):
+        return 1.0
+    from cml_edge.bench.timing import synapse_counts
+
+    plane, world = synapse_counts(int(dims), moves)
+    return world / plane
+
+
 def _scenario_sizes(args: Any) -> tuple[float, float, float, float, str]:
-    """(walks, steps, plan steps, repeats, budget name) of a scenario's or break point's
-    model seed: its runs' training with their float64 twins, its parts' trials x their
-    step budgets, once (a break point: :data:`BREAKPOINT_RUNS` times); an unknown scenario
-    counts nothing (it is refused later)."""
+    """(walks, steps, plan steps, scale, budget name) of a scenario's or break point's
+    model seed in the world it runs in (``dims``, ``moves``): its runs' training with their
+    float64 twins, its parts' trials x their step budgets; ``scale``, what they cost
+    against as many steps on the plane: once (a break point: :data:`BREAKPOINT_RUNS` times)
+    at that world's weights (:func:`_weights_ratio`). An unknown scenario, or one that does
+    not run in that world, counts nothing (it is refused later)."""
     from cml_edge.scenarios.registry import BUDGETS, SCENARIOS
 
     scenario = SCENARIOS.get(getattr(args, "name", None) or getattr(args, "scenario", None))
@@ -177,11 +202,17 @@ def _scenario_sizes(args: Any) -> tuple[float, float, float, float, str]:
     if scenario is None or name not in BUDGETS:
         return 0.0, 0.0, 0.0, 1.0, name
     b = BUDGETS[name]
-    runs = [run for _, run in scenario.runs(b)]
-    repeat = BREAKPOINT_RUNS if args.command == "breakpoint" else 1
+    try:
+        runs = [run for _, run in scenario.runs(b, getattr(args, "dims", None),
+                                                getattr(args, "moves", None) or "king")]
+    except InputError:
+        return 0.0, 0.0, 0.0, 1.0, name
+    world = runs[0]["run"]  # a grid run off the plane's king moves names its world
+    scale = ((BREAKPOINT_RUNS if args.command == "breakpoint" else 1)
+             * _weights_ratio(world.get("dims", 2), world.get("moves")))
     plan_steps = sum(p["trials"] * (p.get("max_steps") or PLAN_BUDGET)  # a robot drive:
                      for run in runs for p in run["parts"])  # robot.planning.MAX_ACTIONS
-    return 2.0 * len(runs) * b.walks, float(b.steps), float(plan_steps), float(repeat), name
+    return 2.0 * len(runs) * b.walks, float(b.steps), float(plan_steps), scale, name
 
 
 def check(args: Any, memory: int | None = None, **read: float) -> str | None:

@@ -11,13 +11,10 @@ import numpy as np
 from cml_edge import __version__
 from cml_edge.cli.args import (
     Progress,
-    add_backend,
     backend_options,
     command_line,
     finite_float,
-    nonneg_int,
     positive_float,
-    positive_int,
 )
 from cml_edge.cli.output import (
     device_label,
@@ -29,12 +26,11 @@ from cml_edge.cli.output import (
     secs,
     table,
 )
-from cml_edge.core.cml import UTILITIES, CMLConfig
-from cml_edge.core.learning import SCHEDULES
+from cml_edge.cli.vehicle import Vehicle, add_drive_options, add_run_options, add_vehicle_parsers
+from cml_edge.core.cml import CMLConfig
 from cml_edge.engine.timings import stage
 from cml_edge.errors import InputError
 from cml_edge.io.files import writable_file
-from cml_edge.protocol import EVAL_SEED
 from cml_edge.robot.models import (
     asdict_options,
     evaluate_models,
@@ -44,30 +40,23 @@ from cml_edge.robot.models import (
     train_models,
 )
 from cml_edge.robot.observation import GOAL_HEADINGS, OBSERVATIONS, RobotCMLSettings
-from cml_edge.robot.planning import (
-    BASE_POSE,
-    GOAL_RADIUS,
-    MAX_ACTIONS,
-    PATHS,
-    STOPS,
-    draw_goals,
-    plan_robot,
-    summarize_robot,
-)
-from cml_edge.robot.sim import SIMS, MujocoOptions, RobotConfig, RobotSim, make_sim
+from cml_edge.robot.planning import BASE_POSE, GOAL_RADIUS, draw_goals, plan_robot, summarize_robot
+from cml_edge.robot.sim import MujocoOptions, RobotConfig, RobotSim, make_sim
 from cml_edge.robot.training import RobotTrainConfig
 
+MUJOCO = {"timestep": "physics step, s", "friction": "wheel-floor friction",
+          "kv": "wheel velocity servo gain", "torque": "motor torque limit"}
+"""The MuJoCo options of ``--sim mujoco``, each with its help."""
 
-def _add_sim(p: argparse.ArgumentParser, default: str | None) -> None:
-    tail = "default kinematic" if default else "default: the one the model was trained on"
-    p.add_argument("--sim", choices=SIMS, default=default,
-                   help=f"kinematic (exact arcs, compiled) or mujoco (physics; the robot extra); "
-                        f"{tail}")
-    g = p.add_argument_group("mujoco options")
-    for f, helptext in (("timestep", "physics step, s"), ("friction", "wheel-floor friction"),
-                        ("kv", "wheel velocity servo gain"), ("torque", "motor torque limit")):
-        g.add_argument(f"--mujoco-{f}", type=positive_float, default=None, metavar="X",
-                       help=f"{helptext} (default {getattr(MujocoOptions(), f)})")
+
+def _add_training(t: argparse.ArgumentParser) -> None:
+    t.add_argument("--observation", choices=OBSERVATIONS, default="heading",
+                   help="xy: the paper's (x, y); heading: (x, y, cos, sin) read in the "
+                        "heading's frame (default); heading-world: the same in the world frame")
+    t.add_argument("--goal-heading", choices=GOAL_HEADINGS, default="bearing",
+                   help="default heading of o* for planning (bearing)")
+    t.add_argument("--heading-scale", type=positive_float, default=None,
+                   help="weight h of the heading components (default 1/30, as positions)")
 
 
 def _add_planning(p: argparse.ArgumentParser) -> None:
@@ -81,96 +70,23 @@ def _add_planning(p: argparse.ArgumentParser) -> None:
     add_run_options(p)
 
 
-def add_drive_options(p: argparse.ArgumentParser, shape: str, step: str,
-                      radius: float) -> None:
-    """The planning options the robot and the drone share: the utility, the stop check (of
-    the goal ``shape``, every simulation ``step``), the budget and the goal ``radius``."""
-    p.add_argument("--utility", choices=UTILITIES, default=None,
-                   help="planning utility (default: the model's)")
-    p.add_argument("--stop", choices=STOPS, default="action",
-                   help=f"check the goal {shape} after each action (the default) or at every "
-                        f"{step} simulation step")
-    p.add_argument("--max-actions", type=positive_int, default=MAX_ACTIONS,
-                   help=f"action budget ({MAX_ACTIONS})")
-    p.add_argument("--radius", type=positive_float, default=radius,
-                   help=f"goal radius in m ({radius})")
-
-
-def add_run_options(p: argparse.ArgumentParser) -> None:
-    """The goals' seed, the compute path and ``--json``, for the robot and the drone."""
-    p.add_argument("--eval-seed", type=nonneg_int, default=EVAL_SEED,
-                   help=f"seed of the random goals ({EVAL_SEED})")
-    p.add_argument("--path", choices=PATHS, default="direct",
-                   help="compiled loop (direct) or plain-Python reference")
-    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-
-
-def add_training_options(t: argparse.ArgumentParser) -> None:
-    """The ``train`` options the robot and the drone share: the walks, the device, the
-    seeds, the compute path and the output."""
-    t.add_argument("--walks", type=positive_int, default=RobotTrainConfig.walks,
-                   help=f"exploration walks ({RobotTrainConfig.walks})")
-    t.add_argument("--steps", type=positive_int, default=RobotTrainConfig.steps,
-                   help=f"actions per walk ({RobotTrainConfig.steps})")
-    t.add_argument("--schedule", choices=SCHEDULES, default="walk",
-                   help="updates applied at the end of each walk (walk) or at once (step)")
-    add_backend(t)
-    t.add_argument("--seed", type=nonneg_int, default=0, help="first model seed (0)")
-    t.add_argument("--seeds", type=positive_int, default=1,
-                   help="models to train, seeds SEED..SEED+N-1, all in one file (1)")
-    t.add_argument("--path", choices=PATHS, default="direct",
-                   help="compiled loop (direct) or plain-Python reference")
-    t.add_argument("--out", required=True, help="model file to write (.npz)")
-    t.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-
-
 def add_parsers(subparsers) -> None:
     """``robot train|evaluate|navigate``."""
-    p = subparsers.add_parser("robot", help="the continuous wheeled robot (paper 2.5, 3.5)")
-    p.set_defaults(run=cmd_robot)
-    sub = p.add_subparsers(dest="robot_command", required=True, parser_class=type(p))
-
-    t = sub.add_parser("train", help="train CMLs by random walks of the robot and save them")
-    _add_sim(t, "kinematic")
-    t.add_argument("--observation", choices=OBSERVATIONS, default="heading",
-                   help="xy: the paper's (x, y); heading: (x, y, cos, sin) read in the "
-                        "heading's frame (default); heading-world: the same in the world frame")
-    t.add_argument("--goal-heading", choices=GOAL_HEADINGS, default="bearing",
-                   help="default heading of o* for planning (bearing)")
-    t.add_argument("--heading-scale", type=positive_float, default=None,
-                   help="weight h of the heading components (default 1/30, as positions)")
-    t.add_argument("--utility", choices=UTILITIES, default="raw",
-                   help="planning utility stored with the model (raw)")
-    add_training_options(t)
-    t.set_defaults(show=show_robot_train)
-
-    e = sub.add_parser("evaluate", help="drive to random goals from the base; the issue's "
-                       "metrics")
-    e.add_argument("model", nargs="+", help="robot model file(s) (.npz); the models of "
-                   "several files (trained alike) are pooled")
-    _add_sim(e, None)
-    e.add_argument("--trials", type=positive_int, default=100, help="random goals (100)")
-    e.add_argument("--seeds", type=positive_int, default=None,
-                   help="use the first N models (default all)")
-    _add_planning(e)
-    e.set_defaults(show=show_robot_evaluate)
-
-    n = sub.add_parser("navigate", help="drive to a few goals and plot them (Figure 9)")
-    n.add_argument("model", help="robot model file (.npz)")
-    _add_sim(n, None)
-    n.add_argument("--goal", type=finite_float, nargs=2, metavar=("X", "Y"), default=None,
-                   help="one goal (default: --goals random goals)")
-    n.add_argument("--goals", type=positive_int, default=10,
-                   help="random goals from the evaluation seed (10)")
-    n.add_argument("--model-index", type=nonneg_int, default=0,
-                   help="which model of the file drives (0)")
-    n.add_argument("--plot", default=None, help="write a PNG like the paper's Figure 9")
-    n.set_defaults(show=show_robot_navigate)
-    _add_planning(n)
+    add_vehicle_parsers(subparsers, Vehicle(
+        name="robot", help="the continuous wheeled robot (paper 2.5, 3.5)", run=cmd_robot,
+        commands={"train": ("train CMLs by random walks of the robot and save them",
+                            show_robot_train),
+                  "evaluate": ("drive to random goals from the base; the protocol's metrics",
+                               show_robot_evaluate),
+                  "navigate": ("drive to a few goals and plot them (Figure 9)",
+                               show_robot_navigate)},
+        plot="write a PNG like the paper's Figure 9", moves="drives", axes=("X", "Y"),
+        exact="exact arcs", mujoco=MUJOCO, mujoco_defaults=MujocoOptions(), utility="raw",
+        train_options=_add_training, planning_options=_add_planning))
 
 
 def _mujoco_options(args: argparse.Namespace) -> dict[str, float]:
-    return {f: getattr(args, f"mujoco_{f}") for f in ("timestep", "friction", "kv", "torque")
+    return {f: getattr(args, f"mujoco_{f}") for f in MUJOCO
             if getattr(args, f"mujoco_{f}", None) is not None}
 
 

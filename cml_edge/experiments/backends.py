@@ -18,6 +18,7 @@ from cml_edge.backends import configurations
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -63,7 +64,7 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     ax.set_ylabel("success over connected pairs")
     ax.set_ylim(0, 1.05)
     ax.legend(fontsize=8)
-    ax.set_title(f"Synaptic arrays, 30 x 30, {rows_[0]['seeds']} seeds x 100 pairs")
+    ax.set_title(f"Synaptic arrays, {arena_title(results)}, {rows_[0]['seeds']} seeds x 100 pairs")
     save_png(fig, path)
     plt.close(fig)
 

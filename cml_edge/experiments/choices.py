@@ -16,6 +16,7 @@ from typing import Any
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -71,6 +72,7 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
         ax.set_xticks([i + 0.2 for i in range(len(names))], names, rotation=20, ha="right")
         ax.set_ylabel(label)
         ax.legend(fontsize=8)
-    fig.suptitle(f"Choices the paper leaves open, 30 x 30, {rows_[0]['seeds']} seeds x 100 pairs")
+    fig.suptitle(f"Choices the paper leaves open, {arena_title(results)}, "
+                 f"{rows_[0]['seeds']} seeds x 100 pairs")
     save_png(fig, path)
     plt.close(fig)

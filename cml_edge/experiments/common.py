@@ -209,6 +209,16 @@ def figure():
     return pyplot()
 
 
+def arena_title(results: dict[str, dict[str, Any]], side: int = 30) -> str:
+    """The training arena of ``results`` as a figure says it: ``30 x 30``, or
+    ``30 x 30 x 30`` in the volume (the results' ``dims``), with ``, face moves`` off the
+    king moves."""
+    first = next(iter(results.values()))
+    moves = first.get("moves", "king")
+    return (" x ".join([str(side)] * first.get("dims", 2))
+            + (f", {moves} moves" if moves != "king" else ""))
+
+
 def run_experiment(module: Any, out: str | Path | None = None, workers: int | None = None,
                    scheduler: str | None = None,
                    progress: Callable[[int, int], None] | None = None,

@@ -17,6 +17,7 @@ import numpy as np
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -76,7 +77,8 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     ax.set_xlabel("training steps")
     ax.set_ylabel("training error ||e_t|| (mean per walk)")
     ax2.set_ylabel("evaluation e_pos mean (grid cells)")
-    ax.set_title(f"Convergence, 30 x 30, {rows_[0]['seeds']} seeds (cf. paper Fig. 4B)")
+    ax.set_title(f"Convergence, {arena_title(results)}, {rows_[0]['seeds']} seeds "
+                 "(cf. paper Fig. 4B)")
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax2.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right")

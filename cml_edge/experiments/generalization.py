@@ -20,6 +20,7 @@ import numpy as np
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -76,8 +77,8 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
         ax.set_title(title)
         if field == "e_pos":
             ax.set_yscale("symlog", linthresh=1.0)
-    fig.suptitle(f"Trained on 30 x 30, evaluated on larger arenas, {rows_[0]['seeds']} seeds "
-                 "(cf. paper Fig. 7)")
+    fig.suptitle(f"Trained on {arena_title(results)}, evaluated on larger arenas, "
+                 f"{rows_[0]['seeds']} seeds (cf. paper Fig. 7)")
     save_png(fig, path)
     plt.close(fig)
 

@@ -16,6 +16,7 @@ from typing import Any
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -70,8 +71,8 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
         axes[1, col].set_ylabel("path overhead mean (successes)")
         axes[1, col].set_xlabel("training steps")
         axes[0, col].legend(fontsize=8)
-    fig.suptitle(f"Hyper-parameters, 30 x 30, random exploration, {rows_[0]['seeds']} seeds "
-                 "(cf. paper Fig. 5)")
+    fig.suptitle(f"Hyper-parameters, {arena_title(results)}, random exploration, "
+                 f"{rows_[0]['seeds']} seeds (cf. paper Fig. 5)")
     save_png(fig, path)
     plt.close(fig)
 

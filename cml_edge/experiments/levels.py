@@ -28,6 +28,7 @@ import numpy as np
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     config_id,
     eval_spec,
     figure,
@@ -102,6 +103,7 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     ax.set_ylabel("success rate (band: 2 standard errors over seeds)")
     ax.set_ylim(0, 1.05)
     ax.legend(fontsize=8, loc="lower right")
-    ax.set_title(f"Noise-free crossbar, 30 x 30, {rows_[0]['seeds']} seeds x 100 pairs")
+    ax.set_title(f"Noise-free crossbar, {arena_title(results)}, {rows_[0]['seeds']} seeds "
+                 "x 100 pairs")
     save_png(fig, path)
     plt.close(fig)

@@ -20,6 +20,7 @@ import numpy as np
 from cml_edge.engine.sweep import Task
 from cml_edge.experiments.common import (
     DEFAULT_SEEDS,
+    arena_title,
     eval_spec,
     figure,
     make_tasks,
@@ -70,7 +71,7 @@ def plot(rows_: list[dict[str, Any]], results: dict[str, dict[str, Any]], path) 
     axes[1].set_title("success over connected pairs")
     axes[2].set_title("steps / geodesic (successes)")
     for ax in axes[:3]:
-        ax.set_xlabel("point obstacles (30 x 30)")
+        ax.set_xlabel(f"point obstacles ({arena_title(results)})")
         ax.legend(fontsize=8)
     if all(r.get("dims", 2) == 2 for r in results.values()):  # a path drawn on the plane
         _example(axes[3])

@@ -274,8 +274,9 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
     and the scorecard's models in one batch, then the break points' bisections in
     lockstep. ``progress(stage, done, total)`` counts each stage's tasks. With ``space``
     (the default), the 3-D section ``space``: every system again in the 30 x 30 x 30
-    volume (:data:`SPACE`; the protocol and the operation counts, :func:`space_row`) and
-    the scorecard's 3-D scenarios (:attr:`ScorecardPlan.space`); the plane's sections are
+    volume (:data:`SPACE`; the protocol and the operation counts, :func:`space_row`), the
+    scorecard's 3-D scenarios (:attr:`ScorecardPlan.space`) and the break points again in
+    the volume (:func:`~cml_edge.report.scorecard.space_breakpoints`); the plane's sections are
     the same with or without it."""
     t0 = time.perf_counter()
     prof = _profile(quick)
@@ -324,6 +325,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         space_rows.append(space_row(row, acc, cml_row(
             label, backend, opts, acc3, done[f"space-operations-{label}"]), acc3))
     space_card = card.pop("space_scorecard", None)
+    space_bps = card.pop("space_breakpoints", None)
     dqn, dqn_data = dqn_rows(Path(dqn_results))
     sweep_rows = []
     for (figure, label, backend, opts), (prefix, p) in zip(sweeps, sweep_protocols):
@@ -352,6 +354,7 @@ def build_report(quick: bool = False, command: str = "cml-edge report",
         **card,
         **({"space": {"dims": SPACE[0], "moves": SPACE[1], "arena": 30,
                       "systems": space_rows, "scorecard": space_card or [],
+                      "breakpoints": space_bps or [],
                       "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,
                                          "target": TARGET, "scenarios": list(plan.space),
                                          "devices": [d[0] for d in plan.devices]}}}

@@ -14,7 +14,7 @@ from cml_edge.report.sections import (
     seeds_text,
     verdict_table,
 )
-from cml_edge.report.tables import Cell, Table, at
+from cml_edge.report.tables import Cell, Table, at, lookup
 from cml_edge.report.verdict import part_verdicts
 
 
@@ -61,20 +61,21 @@ are plain numbers (read noise, levels, bits)."""
 def breakpoint_command(b: dict[str, Any]) -> str:
     """The ``cml-edge breakpoint`` command of one break point of the report."""
     budget = [] if b["budget"] == "full" else ["--budget", b["budget"]]
+    dims = [] if b.get("dims") is None else ["--dims", str(b["dims"])]
     return command("breakpoint", *device_flags(b["backend"], b.get("options") or {}),
-                   "--knob", b["knob"], "--scenario", b["scenario"], "--target",
+                   "--knob", b["knob"], "--scenario", b["scenario"], *dims, "--target",
                    f"{b['target']:g}", "--seeds", str(b["seeds"]), *budget)
 
 
-def breakpoints(report: dict[str, Any]) -> Section:
-    """Where each knob breaks the paper scenario, or that it does not within its range:
-    the knob's two ends and the success there (the first two evaluations)."""
-    table = Table("breakpoints", ["device", "knob", "breaks at (last good)", "first bad",
-                                  "good end", "success there", "bad end", "success there",
-                                  "evaluations"])
-    for i, b in enumerate(report["breakpoints"]):
+def breakpoint_table(report: dict[str, Any], key: str, name: str) -> Table:
+    """Table ``name`` of the break points at ``key`` of the report (``breakpoints``, or the
+    3-D section's ``space.breakpoints``): where each knob breaks, or that it does not within
+    its range, the knob's two ends and the success there (the first two evaluations)."""
+    table = Table(name, ["device", "knob", "breaks at (last good)", "first bad", "good end",
+                         "success there", "bad end", "success there", "evaluations"])
+    for i, b in enumerate(lookup(report, key)):
         unit = KNOB_UNITS.get(b["knob"], "")
-        row = f"breakpoints.{i}"
+        row = f"{key}.{i}"
         if b.get("bracket"):
             found = [at(report, f"{row}.value", unit), at(report, f"{row}.bracket.1", unit)]
         else:
@@ -83,6 +84,11 @@ def breakpoints(report: dict[str, Any]) -> Section:
                 for e in (0, 1) for k, u in (("value", unit), ("success_rate", "%"))]
         table.add(b["device"], [b["knob"], *found, *ends,
                                 at(report, f"{row}.n_evaluations")], breakpoint_command(b))
+    return table
+
+
+def breakpoints(report: dict[str, Any]) -> Section:
+    """Where each knob breaks the paper scenario (:func:`breakpoint_table`)."""
     plan = report["scorecard_plan"]
     return Section("breakpoints", "Break points", (
         f"The knob value at which the scenario's success (its worst part) last meets the "
@@ -91,7 +97,8 @@ def breakpoints(report: dict[str, Any]) -> Section:
         f"`{plan['budget']}` budget (`cml-edge breakpoint --knob KNOB --scenario paper`: "
         f"each row's command is its tooltip in report.html); `{report_command(report)}`. "
         "none in range: the knob's physical range does not bracket the target (the success "
-        "at its two ends says which way)."), [table])
+        "at its two ends says which way)."), [breakpoint_table(report, "breakpoints",
+                                                              "breakpoints")])
 
 
 def recovery(report: dict[str, Any]) -> Section | None:

@@ -1,6 +1,7 @@
 """The report's PNG figures, drawn from the report dict alone (see
 :mod:`cml_edge.report.build`): accuracy, convergence, memory and traffic, the sweeps,
-trajectories, the scorecard's heat maps, the break points, recovery."""
+trajectories, the scorecard's heat maps, the break points, recovery, and the 3-D section's
+trajectories in the volume and break points beside the plane's."""
 
 from __future__ import annotations
 
@@ -12,7 +13,8 @@ import numpy as np
 from cml_edge.report.numbers import human
 
 FIGURE_FILES = ("scorecard.png", "breakpoints.png", "recovery.png", "convergence.png",
-                "accuracy.png", "sweeps.png", "memory_traffic.png", "trajectories.png")
+                "accuracy.png", "sweeps.png", "memory_traffic.png", "trajectories.png",
+                "trajectories_3d.png", "breakpoints_3d.png")
 """Every figure a report folder may hold (a report draws those its data has)."""
 
 
@@ -27,6 +29,50 @@ def _devices(rows: list[dict[str, Any]]) -> list[str]:
 
 def _grid(rows: list[dict[str, Any]], key: str) -> dict[tuple[str, str, str], Any]:
     return {(r["device"], r["scenario"], r["part"]): r[key] for r in rows}
+
+
+BAR_COLOURS = ("tab:purple", "tab:orange")
+"""The bars of a break-point figure: the plane's, the volume's."""
+
+
+def _breakpoint_bars(plt, series: list[tuple[str | None, list[dict[str, Any]]]], name: str,
+                     title: str, save) -> None:
+    """One panel per knob, a bar per device at its break point (grey where the knob's
+    range has none), for each (legend label, break-point rows) of ``series`` side by side;
+    a knob swept on a log scale drawn on one."""
+    knobs = list(dict.fromkeys(b["knob"] for b in series[0][1]))
+    if not knobs:
+        return
+    width = 0.8 / len(series)
+    fig, axes = plt.subplots(1, len(knobs), figsize=(2.6 * len(knobs), 3.2), squeeze=False)
+    for ax, knob in zip(axes[0], knobs):
+        for k, (label, rows) in enumerate(series):
+            sel = [b for b in rows if b["knob"] == knob]
+            vals = [b["value"] if b["value"] is not None else 0 for b in sel]
+            x = np.arange(len(sel)) + (k - (len(series) - 1) / 2) * width
+            bars = ax.bar(x, vals, width, label=label, color=[
+                BAR_COLOURS[k] if b["value"] is not None else "0.8" for b in sel])
+            for bar, b in zip(bars, sel):
+                x_mid = bar.get_x() + bar.get_width() / 2
+                if b["value"] is None and len(series) == 1:
+                    ax.text(x_mid, 0, "no break point\nwithin the\nphysical range",
+                            ha="center", va="bottom", fontsize=5)
+                elif b["value"] is None or b["value"] == 0:  # a narrow bar: a word on it
+                    ax.text(x_mid, 0.02, "none in range" if b["value"] is None else "0",
+                            ha="center", va="bottom", fontsize=5, rotation=90,
+                            transform=ax.get_xaxis_transform())  # y: of the axes, any scale
+            if any(b.get("log") for b in sel) and any(v > 0 for v in vals):
+                ax.set_yscale("log")
+        ax.set_xticks(range(len(sel)))
+        ax.set_xticklabels([b["device"] for b in sel], rotation=60, fontsize=6)
+        ax.set_title(f"{knob} at success {human(sel[0]['target'], '%')}", fontsize=8)
+    if series[0][0] is not None:
+        from matplotlib.patches import Patch
+
+        fig.legend(handles=[Patch(color=BAR_COLOURS[k], label=label)
+                            for k, (label, _) in enumerate(series)], fontsize=7,
+                   loc="upper right")
+    save(fig, name, title)
 
 
 def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
@@ -52,25 +98,8 @@ def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
         fig.colorbar(im, ax=ax, fraction=0.03)
     save(fig, "scorecard.png", "scorecard: devices x scenarios")
 
-    bps = report["breakpoints"]
-    knobs = list(dict.fromkeys(b["knob"] for b in bps))
-    if knobs:
-        fig, axes = plt.subplots(1, len(knobs), figsize=(2.6 * len(knobs), 3.2), squeeze=False)
-        for ax, knob in zip(axes[0], knobs):
-            sel = [b for b in bps if b["knob"] == knob]
-            vals = [b["value"] if b["value"] is not None else 0 for b in sel]
-            bars = ax.bar(range(len(sel)), vals, color=["tab:purple" if b["value"] is not None
-                                                        else "0.8" for b in sel])
-            for bar, b in zip(bars, sel):
-                if b["value"] is None:
-                    ax.text(bar.get_x() + bar.get_width() / 2, 0, "no break point\nwithin "
-                            "the\nphysical range", ha="center", va="bottom", fontsize=5)
-            ax.set_xticks(range(len(sel)))
-            ax.set_xticklabels([b["device"] for b in sel], rotation=60, fontsize=6)
-            if any(b.get("log") for b in sel) and any(v > 0 for v in vals):
-                ax.set_yscale("log")
-            ax.set_title(f"{knob} at success {human(sel[0]['target'], '%')}", fontsize=8)
-        save(fig, "breakpoints.png", "break points")
+    _breakpoint_bars(plt, [(None, report["breakpoints"])], "breakpoints.png", "break points",
+                     save)
 
     rec = report["recovery"]
     if rec:
@@ -88,6 +117,43 @@ def _scorecard_figures(report: dict[str, Any], plt, save) -> None:
             ax.set_ylabel(name)
         axes[0].legend(fontsize=6)
         save(fig, "recovery.png", "recovery after a year of drift")
+
+
+def _space_figures(report: dict[str, Any], plt, save) -> None:
+    """The 3-D section's figures: each device's example paths in the volume, seen from
+    :data:`~cml_edge.io.figures.VIEWS` (a row each), and the break points on the plane
+    beside those in the volume."""
+    from cml_edge.io.figures import VIEWS
+
+    sp = report["space"]
+    n = sp["arena"]
+    fig = plt.figure(figsize=(2.6 * len(sp["systems"]), 2.8 * len(VIEWS)))
+    for row, (elev, azim, view, end_on) in enumerate(VIEWS):
+        for col, s in enumerate(sp["systems"]):
+            ax = fig.add_subplot(len(VIEWS), len(sp["systems"]), row * len(sp["systems"])
+                                 + col + 1, projection="3d")
+            for path in s["system"]["example_paths"]:
+                p = np.array(path)
+                ax.plot(*p.T, "-", lw=1.0)
+                ax.plot(*[[v] for v in p[0]], "x", color="tab:red")
+                ax.plot(*[[v] for v in p[-1]], "*", color="tab:green")
+            for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+                setter(-0.5, n - 0.5)
+            ax.view_init(elev=elev, azim=azim)
+            if end_on is not None:
+                ax.set_proj_type("ortho")
+                getattr(ax, f"set_{end_on}ticks")([])
+            ax.tick_params(labelsize=5)
+            if row == 0:
+                ax.set_title(s["label"], fontsize=7)
+            if col == 0:
+                ax.text2D(-0.15, 0.5, view, rotation=90, va="center", fontsize=7,
+                          transform=ax.transAxes)
+    save(fig, "trajectories_3d.png", "example trajectories in the volume")
+    if sp.get("breakpoints"):
+        _breakpoint_bars(plt, [("2-D", report["breakpoints"]), ("3-D", sp["breakpoints"])],
+                         "breakpoints_3d.png", "break points on the plane and in the volume",
+                         save)
 
 
 def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
@@ -184,4 +250,6 @@ def render_figures(report: dict[str, Any], folder: Path) -> dict[str, str]:
     save(fig, "trajectories.png", "example trajectories")
     if report.get("scorecard"):
         _scorecard_figures(report, plt, save)
+    if (report.get("space") or {}).get("systems"):
+        _space_figures(report, plt, save)
     return files

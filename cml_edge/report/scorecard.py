@@ -21,8 +21,10 @@ runs), then each break point the devices declare for the report
   range does not bracket the target: ``note`` then says why, with both ends' success),
   ``target``, ``seeds``, ``log`` (the knob is swept on a log scale, and drawn on one),
   and every evaluation the bisection took;
-- ``space_scorecard`` (with :attr:`ScorecardPlan.space`): the scorecard's rows of the
-  3-D scenarios (each with its ``dims``), for the report's 3-D section;
+- ``space_scorecard`` and ``space_breakpoints`` (with :attr:`ScorecardPlan.space`): the
+  scorecard's rows of the 3-D scenarios (each with its ``dims``) and the same break points
+  in the volume (:func:`space_breakpoints`; rows with ``dims``), for the report's 3-D
+  section;
 - ``recovery``: one row per device x K (walks of in-situ relearning after a year of
   drift): ``device``, ``walks``, ``success_rate``, ``pulses``, ``energy_uJ`` (seed means
   of what the relearning cost), with ``writes`` and ``decision_agreement``.
@@ -34,7 +36,7 @@ from an earlier run.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from cml_edge.backends import backend_spec, report_breakpoints, report_systems
@@ -63,6 +65,8 @@ class Breakpoint:
     knob: str
     scenario: str = "paper"
     value_range: tuple[float, float] | None = None
+    dims: int | None = None
+    """The scenario's dimensions (None: its default, the plane)."""
 
 
 def reference_breakpoints() -> tuple[Breakpoint, ...]:
@@ -147,7 +151,8 @@ def recovery_rows(device: str, result: dict[str, Any]) -> list[dict[str, Any]]:
 def breakpoint_search(bp: Breakpoint, plan: ScorecardPlan) -> Search:
     """The search of one break point of the report (its inputs checked)."""
     return breakpoint_search_of(bp.scenario, bp.backend, bp.knob, bp.options, TARGET,
-                                plan.breakpoint_seeds, bp.value_range, plan.budget)
+                                plan.breakpoint_seeds, bp.value_range, plan.budget,
+                                dims=bp.dims)
 
 
 def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan,
@@ -162,7 +167,8 @@ def breakpoint_row(bp: Breakpoint, plan: ScorecardPlan,
     row: dict[str, Any] = {"device": bp.device, "backend": bp.backend, "options": bp.options,
                            "knob": bp.knob, "scenario": bp.scenario, "target": TARGET,
                            "seeds": plan.breakpoint_seeds, "budget": plan.budget,
-                           "log": search.knob.log}
+                           "log": search.knob.log,
+                           **({} if bp.dims is None else {"dims": bp.dims})}
     if not res["found"]:  # not bracketed: a finding, reported as measured
         return {**row, "value": None, "note": res["note"], "evaluations": res["evaluations"],
                 "n_evaluations": res["n_evaluations"]}
@@ -216,6 +222,12 @@ def space_tasks(plan: ScorecardPlan) -> dict[tuple[str, str], list[Task]]:
             for label, backend, options in plan.devices for name in plan.space}
 
 
+def space_breakpoints(plan: ScorecardPlan) -> list[Breakpoint]:
+    """The plan's break points again in 3-D (:data:`SPACE_DIMS`), when it has 3-D scenarios:
+    the same knobs, ranges, target and seeds on the paper scenario in the volume."""
+    return [replace(bp, dims=SPACE_DIMS) for bp in plan.breakpoints] if plan.space else []
+
+
 def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str, Any]:
     """The ``scorecard``, ``breakpoints`` and ``recovery`` sections (module docstring),
     and the plan they were measured with (``scorecard_plan``); on ``batch`` (else on
@@ -227,6 +239,7 @@ def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str
     own3 = space_tasks(plan)
     tasks, owner = shared_training([t for ts in [*own.values(), *own3.values()] for t in ts])
     searches = [(bp, breakpoint_search(bp, plan)) for bp in plan.breakpoints]
+    searches3 = [(bp, breakpoint_search(bp, plan)) for bp in space_breakpoints(plan)]
     done = batch.run("scorecard", tasks)
     scorecard: list[dict[str, Any]] = []
     recovery: list[dict[str, Any]] = []
@@ -247,11 +260,14 @@ def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str
         results = {t.key: shared_result(t, done[owner[t.key]]) for t in ts}
         res = scenario_result(name, backend, options, plan.seeds, plan.budget, 0.0, ts,
                               results)
-        space += [{**row, "dims": res["dims"]} for row in scorecard_rows(label, res)]
-    run_searches(searches, batch)
+        dims = res.get("dims", SPACE_DIMS)  # a world 3-D by nature (the drone) says none
+        space += [{**row, "dims": dims} for row in scorecard_rows(label, res)]
+    run_searches(searches + searches3, batch)
     breakpoints = [breakpoint_row(bp, plan, search) for bp, search in searches]
     return {"scorecard": scorecard, "breakpoints": breakpoints, "recovery": recovery,
-            **({"space_scorecard": space} if plan.space else {}),
+            **({"space_scorecard": space,
+                "space_breakpoints": [breakpoint_row(bp, plan, search)
+                                      for bp, search in searches3]} if plan.space else {}),
             "dqn_retrain": dqn_retrain,
             "scorecard_plan": {"seeds": plan.seeds, "budget": plan.budget,
                                "breakpoint_seeds": plan.breakpoint_seeds,

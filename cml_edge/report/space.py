@@ -4,16 +4,18 @@ The paper: "The resource requirements of such an upscaling would increase propor
 with the number of dimensions." Here that is a measured ratio: every system of the budget
 again in the 30 x 30 x 30 volume with the 26 king moves (``report["space"]``, measured by
 :func:`cml_edge.report.build.build_report`), a table of ratios over the devices, one table
-per device (the plane's figures, the volume's and their ratio), and the verdicts of the
-scorecard's 3-D scenarios (:data:`cml_edge.scenarios.registry.SPACE_SCENARIOS`). Every
-number is a cell of report.json (``space.systems.I.plane.KEY``, ``space.systems.I.space.KEY``,
-``space.systems.I.ratio.KEY``, ``space.scorecard.I.KEY``).
+per device (the plane's figures, the volume's and their ratio), the verdicts of the
+scorecard's 3-D scenarios (:data:`cml_edge.scenarios.registry.SPACE_SCENARIOS`), and the
+report's break points again in the volume beside the plane's. Every number is a cell of
+report.json (``space.systems.I.plane.KEY``, ``space.systems.I.space.KEY``,
+``space.systems.I.ratio.KEY``, ``space.scorecard.I.KEY``, ``space.breakpoints.I.KEY``).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from cml_edge.report.card import KNOB_UNITS, breakpoint_command, breakpoint_table
 from cml_edge.report.numbers import human
 from cml_edge.report.sections import (
     Section,
@@ -23,7 +25,7 @@ from cml_edge.report.sections import (
     seeds_text,
     verdict_table,
 )
-from cml_edge.report.tables import Cell, Table, at
+from cml_edge.report.tables import Cell, Table, at, lookup
 
 FIGURES = (("parameters", "parameters", ""), ("parameter memory", "parameter_bytes", "B"),
            ("training memory", "train_bytes_direct", "B"),
@@ -87,6 +89,29 @@ def overview(report: dict[str, Any]) -> Table:
     return table
 
 
+def breakpoint_comparison(report: dict[str, Any]) -> Table:
+    """Each break point of the report on the plane and in the volume, side by side (the
+    last good value; ``none in range`` where the knob's range does not bracket the
+    target)."""
+    table = Table("space-breakpoint-pairs", ["device", "knob", "2-D breaks at",
+                                             "3-D breaks at", "3-D success at the good end"])
+    plane = {(b["device"], b["knob"]): i for i, b in enumerate(report["breakpoints"])}
+    for j, b in enumerate(report["space"]["breakpoints"]):
+        i = plane.get((b["device"], b["knob"]))
+        unit = KNOB_UNITS.get(b["knob"], "")
+        cells = [Cell(text="n/a") if i is None else _breaks_at(report, f"breakpoints.{i}", unit),
+                 _breaks_at(report, f"space.breakpoints.{j}", unit),
+                 at(report, f"space.breakpoints.{j}.evaluations.0.success_rate", "%")]
+        table.add(b["device"], [b["knob"], *cells], breakpoint_command(b))
+    return table
+
+
+def _breaks_at(report: dict[str, Any], row: str, unit: str) -> Cell:
+    """The last good value of break point ``row``, or ``none in range``."""
+    return (at(report, f"{row}.value", unit) if lookup(report, row).get("bracket")
+            else Cell(text="none in range"))
+
+
 def device_table(report: dict[str, Any], i: int) -> Table:
     """One device: each figure on the plane, in the volume, and their ratio."""
     s = report["space"]["systems"][i]
@@ -121,6 +146,12 @@ def space(report: dict[str, Any]) -> Section | None:
                    f"{seeds_text(plan['seeds'])} at the `{plan['budget']}` budget, each "
                    "device judged against float64 in the same volume (the thresholds of the "
                    "summary):", verdicts_3d(report), scenario_table(report)]
+    if sp.get("breakpoints"):
+        blocks += ["The report's break points again in the volume (the paper scenario "
+                   "with `--dims 3`, the same knobs, ranges, target and seeds; each row's "
+                   "command its tooltip in report.html), beside the plane's:",
+                   breakpoint_comparison(report), "In full, as the plane's are shown:",
+                   breakpoint_table(report, "space.breakpoints", "space-breakpoints")]
     for i, s in enumerate(sp["systems"]):
         blocks += [f"**{s['label']}** (`{' '.join(device_flags(s['backend'], s['options']))}`)",
                    device_table(report, i)]

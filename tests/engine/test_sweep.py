@@ -2,6 +2,8 @@
 
 import json
 import os
+import time
+from pathlib import Path
 
 import pytest
 
@@ -106,13 +108,31 @@ def whoami(i: int) -> dict:
     return {"i": i, "pid": os.getpid()}
 
 
+def meet(i: int, folder: str, workers: int) -> dict:
+    """``whoami`` once ``workers`` processes have each taken a task of the sweep whose
+    ``folder`` this is (so that every worker of the pool runs one; at most a minute)."""
+    Path(folder, str(os.getpid())).touch()
+    deadline = time.monotonic() + 60
+    while len(os.listdir(folder)) < workers and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return whoami(i)
+
+
 def test_workers_kept_for_several_sweeps_are_the_same_processes(tmp_path):
-    tasks = [Task(f"t{i}", f"{__name__}:whoami", {"i": i}) for i in range(6)]
+    """Each sweep's tasks wait until both workers have taken one, so each sweep names
+    every worker of the pool: the second sweep's are the first's."""
+    def tasks(sweep, numbers):
+        (tmp_path / sweep).mkdir()
+        return [Task(f"t{i}", f"{__name__}:meet",
+                     {"i": i, "folder": str(tmp_path / sweep), "workers": 2}) for i in numbers]
+
     with Workers(2) as pool:
-        first = run_sweep(tasks[:3], tmp_path / "a", pool=pool, group=lambda t: t.params["i"] % 2)
-        second = run_sweep(tasks[3:], tmp_path / "b", pool=pool)
+        first = run_sweep(tasks("a", range(3)), tmp_path / "a-out", pool=pool,
+                          group=lambda t: t.params["i"] % 2)
+        second = run_sweep(tasks("b", range(3, 6)), tmp_path / "b-out", pool=pool)
     pids = {r["pid"] for r in first.values()}
-    assert os.getpid() not in pids and {r["pid"] for r in second.values()} <= pids
+    assert os.getpid() not in pids and len(pids) == 2
+    assert {r["pid"] for r in second.values()} == pids
     assert [r["i"] for r in (*first.values(), *second.values())] == list(range(6))
     with pytest.raises(InputError):
         Workers(0)

@@ -54,3 +54,18 @@ def test_a_sweep_in_space(cli, tmp_path):
     assert code == 0 and data["options"]["dims"] == 3 and len(data["rows"]) == 5
     assert json.loads((tmp_path / "o" / "results.json").read_text())["options"]["dims"] == 3
     assert (tmp_path / "o" / "figure.png").read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize("space, arena", [({}, "30 x 30"),
+                                          ({"dims": 3, "moves": "king"}, "30 x 30 x 30"),
+                                          ({"dims": 3, "moves": "face"},
+                                           "30 x 30 x 30, face moves")])
+def test_a_figure_names_the_arena_its_results_ran_in(monkeypatch, tmp_path, space, arena):
+    from cml_edge.experiments import backends
+
+    titles = []
+    monkeypatch.setattr(backends, "save_png",
+                        lambda fig, path: titles.append(fig.axes[0].get_title()))
+    rows = [{"config": "float", "eval": "arena30", "success_rate_connected": 1.0, "seeds": 2}]
+    backends.plot(rows, {"float-s0": {"seed": 0, **space}}, tmp_path / "figure.png")
+    assert titles == [f"Synaptic arrays, {arena}, 2 seeds x 100 pairs"]

@@ -83,14 +83,15 @@ def check_page(folder: Path, figures: int, old: dict | None = None) -> dict:
 
 
 def test_the_reference_page_in_a_browser(reference_page):
-    seen = check_page(reference_page, figures=8)
+    seen = check_page(reference_page, figures=10)  # the 3-D section's two among them
     report = load_report(reference_page)
     cells = [c for c in seen["cells"] if "path" in c]
     # every system's every figure in the budget, every scorecard row's four figures
     assert sum(c["table"] == "budget" for c in cells) == 8 * len(report["systems"])
     assert sum(c["table"].startswith("scenario-") for c in cells) == 4 * len(report["scorecard"])
     assert {"verdicts", "cost", "budget", "scorecard-verdicts", "breakpoints",
-            "recovery"} <= set(seen["tables"])
+            "recovery", "space-verdicts", "space-breakpoint-pairs",
+            "space-breakpoints"} <= set(seen["tables"])
     pcm = next(c for c in cells if c["table"] == "budget" and c["row"] == "crossbar-pcm"
                and c["path"].endswith("parameter_bytes"))
     assert pcm["text"] == "36.9 kB"  # 36,864 bytes, for people
@@ -100,7 +101,7 @@ def test_the_reference_page_in_a_browser(reference_page):
 def test_a_report_run_in_a_browser(report):
     """The page of a report just run (the tiny one): no error, the figures, its numbers."""
     _, out = report
-    check_page(out, figures=8)
+    check_page(out, figures=9)  # 3-D paths; no 3-D break points without 3-D scenarios
 
 
 def test_the_comparison_highlights_what_changed(reference_page, tmp_path):
@@ -112,7 +113,7 @@ def test_the_comparison_highlights_what_changed(reference_page, tmp_path):
     new["systems"][0]["energy_per_action_nj"] = 2.0
     shutil.copytree(reference_page, tmp_path / "old")
     write_report(new, tmp_path / "new", (old, str(tmp_path / "old")))
-    seen = check_page(tmp_path / "new", figures=8, old=old)
+    seen = check_page(tmp_path / "new", figures=10, old=old)
     changed = [c for c in seen["cells"] if c["table"].startswith("changes-")]
     figures = [c for c in changed if c["table"] == "changes-figures" and "path" in c]
     assert {c["path"] for c in figures} == {
@@ -150,7 +151,7 @@ def test_a_page_whose_numbers_differ_from_its_json_fails(reference_page, tmp_pat
     assert ">36.9 kB<" in text
     (folder / "report.html").write_text(text.replace(">36.9 kB<", ">36.8 kB<", 1))
     with pytest.raises(AssertionError, match="36.8 kB"):
-        check_page(folder, figures=8)
+        check_page(folder, figures=10)
 
 
 def test_the_page_sorts_on_the_raw_values(reference_page):

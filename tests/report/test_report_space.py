@@ -10,7 +10,7 @@ import pytest
 from cml_edge.report import build_report, write_report
 from cml_edge.report.build import SPACE_KEYS, space_row
 from cml_edge.report.render import outline, render_markdown
-from cml_edge.report.scorecard import ScorecardPlan
+from cml_edge.report.scorecard import Breakpoint, ScorecardPlan
 from cml_edge.report.space import space
 from cml_edge.report.tables import Cell, Table, lookup
 
@@ -42,7 +42,8 @@ def test_the_reference_has_it_and_a_report_without_it_has_none(reference_page):
 @pytest.mark.slow
 def test_the_3d_section(tmp_path):
     card = ScorecardPlan(2, "tiny", 2, devices=[("float32", "float32", {})],
-                         scenarios=("paper",), breakpoints=(), workers=1, space=("paper",))
+                         scenarios=("paper",), workers=1, space=("paper", "drone"),
+                         breakpoints=(Breakpoint("float32", "float32", {}, "drift_time"),))
     rep = build_report(quick=True, systems=[("float32", "float32", {})], sweeps=[],
                        scorecard=card)
     sp = rep["space"]
@@ -53,16 +54,26 @@ def test_the_3d_section(tmp_path):
     assert row["plane"]["energy_per_run_uj"] != row["space"]["energy_per_run_uj"]
     assert row["plane"]["success_rate"] == rep["systems"][0]["success_rate"]
     assert [(r["scenario"], r["part"], r["dims"]) for r in sp["scorecard"]] == \
-        [("paper", "paper", 3)]
+        [("paper", "paper", 3), ("drone", "drone", 3)]
+    (bp2,), (bp3,) = rep["breakpoints"], sp["breakpoints"]  # the same search in the volume
+    assert "dims" not in bp2 and bp3["dims"] == 3
+    assert {k: bp3[k] for k in ("device", "knob", "scenario", "target", "seeds")} == \
+        {k: bp2[k] for k in ("device", "knob", "scenario", "target", "seeds")}
+    assert bp3["evaluations"] != bp2["evaluations"]
     assert sp["scorecard"][0]["weight_error"] != rep["scorecard"][0]["weight_error"]
     out = write_report(rep, tmp_path / "r")
     md = (out / "report.md").read_text()
     html = (out / "report.html").read_text()
     assert "## 3-D: what the third dimension costs" in md and 'id="space"' in html
     assert "cml-edge scenario paper --dims 3 --backend float32" in html
+    assert "cml-edge scenario drone --dims 3 --backend float32" in html
+    assert ("cml-edge breakpoint --backend float32 --knob drift_time --scenario paper "
+            "--dims 3 --target 0.95") in html
+    assert {"trajectories_3d.png", "breakpoints_3d.png"} <= {f.name for f in out.iterdir()}
     section = next(s for s in outline(rep) if s.key == "space")
     tables = [b for b in section.blocks if isinstance(b, Table)]
     assert [t.key for t in tables] == ["space-ratios", "space-verdicts", "space-scenarios",
+                                       "space-breakpoint-pairs", "space-breakpoints",
                                        "space-float32"]
     for table in tables:  # every number is the JSON's
         for cell in (c for r in table.rows for c in r[1:] if isinstance(c, Cell)):
