@@ -32,7 +32,8 @@ def test_the_plane_s_runs_say_no_dims_and_keep_their_ids():
 
 def test_each_grid_scenario_has_a_3d_form():
     grid = [n for n, s in SCENARIOS.items() if s.world == "grid"]
-    assert "robot" not in grid and set(SPACE_SCENARIOS) <= set(grid)
+    assert "robot" not in grid and set(SPACE_SCENARIOS) <= {*grid, "drone"}
+    assert all(3 in SCENARIOS[n].dims for n in SPACE_SCENARIOS)  # all run in space
     for name in grid:
         runs = SCENARIOS[name].runs(TINY, 3)
         plane = SCENARIOS[name].runs(TINY)
