@@ -13,6 +13,8 @@
   synaptic-array options);
 - :mod:`~cml_edge.cli.vehicle`: the robot's and the drone's ``train | evaluate |
   navigate`` parsers, built by one function;
+- :mod:`~cml_edge.cli.vehicle_commands`: those commands and what a person reads of them,
+  one implementation for both;
 - :mod:`~cml_edge.cli.output`: what a person reads, each result as a short table;
 - :mod:`~cml_edge.cli.compiling`: ``compile`` (a device's kernels ahead of any run), the
   warm-up that compiles a run's parts on every core first, and the line on stderr while

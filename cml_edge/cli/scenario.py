@@ -183,6 +183,11 @@ def show_breakpoint(r: dict[str, Any]) -> None:
                  ("bracket", f"{num(r['bracket'][0])} passes, {num(r['bracket'][1])} fails")]
     else:
         found = [("break point", r["note"])]
+    rise = r.get("largest_rise")
+    if rise is not None:
+        found.append(("not monotone", f"success rose {rise['by']:.3f} from {num(rise['from'])} "
+                                      f"to {num(rise['to'])}, toward the bad end (bisection "
+                                      "assumes it falls)"))
     print("\n".join(labelled([
         *found,
         ("searched", f"{num(r['range'][0])} .. {num(r['range'][1])}, "

@@ -1,7 +1,8 @@
 """The ``train | evaluate | navigate`` parsers of a vehicle, the wheeled robot's
 (:mod:`~cml_edge.cli.robot`) and the drone's (:mod:`~cml_edge.cli.drone`): one builder,
 :func:`add_vehicle_parsers`, given what tells the two apart (:class:`Vehicle`), and the
-option groups they share."""
+option groups they share. The commands themselves are
+:mod:`~cml_edge.cli.vehicle_commands`'s."""
 
 from __future__ import annotations
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from cml_edge.report.numbers import human
 from cml_edge.report.sections import (
     Section,
     command,
@@ -16,6 +17,7 @@ from cml_edge.report.sections import (
 )
 from cml_edge.report.tables import Cell, Table, at, lookup
 from cml_edge.report.verdict import part_verdicts
+from cml_edge.scenarios.breakpoint import largest_rise
 
 
 def scorecard(report: dict[str, Any]) -> Section:
@@ -70,9 +72,12 @@ def breakpoint_command(b: dict[str, Any]) -> str:
 def breakpoint_table(report: dict[str, Any], key: str, name: str) -> Table:
     """Table ``name`` of the break points at ``key`` of the report (``breakpoints``, or the
     3-D section's ``space.breakpoints``): where each knob breaks, or that it does not within
-    its range, the knob's two ends and the success there (the first two evaluations)."""
+    its range, the knob's two ends and the success there (the first two evaluations), and
+    the largest rise in success toward the bad end among the evaluations
+    (:func:`~cml_edge.scenarios.breakpoint.largest_rise`; the bisection assumes none)."""
     table = Table(name, ["device", "knob", "breaks at (last good)", "first bad", "good end",
-                         "success there", "bad end", "success there", "evaluations"])
+                         "success there", "bad end", "success there", "evaluations",
+                         "largest rise toward the bad end", "between"])
     for i, b in enumerate(lookup(report, key)):
         unit = KNOB_UNITS.get(b["knob"], "")
         row = f"{key}.{i}"
@@ -82,9 +87,21 @@ def breakpoint_table(report: dict[str, Any], key: str, name: str) -> Table:
             found = [Cell(text="none in range"), Cell(text="none")]
         ends = [at(report, f"{row}.evaluations.{e}.{k}", u)
                 for e in (0, 1) for k, u in (("value", unit), ("success_rate", "%"))]
-        table.add(b["device"], [b["knob"], *found, *ends,
-                                at(report, f"{row}.n_evaluations")], breakpoint_command(b))
+        table.add(b["device"], [b["knob"], *found, *ends, at(report, f"{row}.n_evaluations"),
+                                *_rise(b, row, unit)], breakpoint_command(b))
     return table
+
+
+def _rise(b: dict[str, Any], row: str, unit: str) -> list[Cell]:
+    """The largest rise of break point ``b`` (at ``row``) toward the bad end, computed from
+    its two evaluations' success, and between which knob values."""
+    rise = largest_rise(b["evaluations"])
+    if rise is None:
+        return [Cell(text="none"), Cell(text="")]
+    values = [e["value"] for e in b["evaluations"]]
+    lo, hi = (f"{row}.evaluations.{values.index(rise[k])}.success_rate" for k in ("from", "to"))
+    return [Cell(rise["by"], "%", of=f"{hi} - {lo}", text="+" + human(rise["by"], "%")),
+            Cell(text=f"{human(rise['from'], unit)} to {human(rise['to'], unit)}")]
 
 
 def breakpoints(report: dict[str, Any]) -> Section:
@@ -97,8 +114,10 @@ def breakpoints(report: dict[str, Any]) -> Section:
         f"`{plan['budget']}` budget (`cml-edge breakpoint --knob KNOB --scenario paper`: "
         f"each row's command is its tooltip in report.html); `{report_command(report)}`. "
         "none in range: the knob's physical range does not bracket the target (the success "
-        "at its two ends says which way)."), [breakpoint_table(report, "breakpoints",
-                                                              "breakpoints")])
+        "at its two ends says which way). Bisection assumes success falls from the good end "
+        "to the bad one; the last two columns name the largest rise toward the bad end among "
+        "the values evaluated, where it did not (none: it fell throughout)."),
+        [breakpoint_table(report, "breakpoints", "breakpoints")])
 
 
 def recovery(report: dict[str, Any]) -> Section | None:

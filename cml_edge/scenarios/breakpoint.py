@@ -20,7 +20,9 @@ are neighbours. The result:
 ``value``, the last grid value (from the good end) at which success met the target;
 ``bracket`` (that value and the first failing neighbour); and every evaluation (knob
 value, success) in the order it ran. Bisection assumes success falls monotonically
-along the grid; the evaluations are all reported so a reader can see where it did not.
+along the grid; the evaluations are all reported so a reader can see where it did not, and
+:func:`largest_rise` (``largest_rise`` of the result, None when success never rises toward
+the bad end) names the largest rise among them.
 
 Success of a scenario is its worst part's ``success_rate`` (or the named ``part``'s).
 
@@ -218,6 +220,7 @@ class Search:
                "seed_list": list(range(int(self.seeds))), "budget": self.budget,
                "part": self.part, "evaluations": self.evaluations,
                **in_space(self.scenario, self.dims, self.moves)}
+        out["largest_rise"] = largest_rise(self.evaluations)
         if not b.bracketed:
             return {**out, "value": None, "bracket": None, "found": False,
                     "note": no_break_point(self.knob, self.lo, self.hi, self.target,
@@ -307,6 +310,25 @@ def find_breakpoint(scenario: str, backend: str, knob: str, options: dict[str, A
             passed.append(search.record(value, res))
         b.record(passed)
     return search.result(command)
+
+
+def largest_rise(evaluations: list[dict[str, Any]]) -> dict[str, float] | None:
+    """The largest rise in success from one evaluated knob value to another farther toward
+    the bad end (``from``, ``to``, ``by``), over a search's ``evaluations`` (the good end
+    first, the bad end second, as :class:`Bisection` runs them); None when success never
+    rises toward the bad end, as the bisection assumes."""
+    if len(evaluations) < 2:
+        return None
+    toward_bad = 1.0 if evaluations[1]["value"] > evaluations[0]["value"] else -1.0
+    along = sorted(evaluations, key=lambda e: toward_bad * e["value"])
+    best, lowest = None, along[0]
+    for e in along[1:]:
+        rise = e["success_rate"] - lowest["success_rate"]
+        if rise > 0 and (best is None or rise > best["by"]):
+            best = {"from": lowest["value"], "to": e["value"], "by": rise}
+        if e["success_rate"] < lowest["success_rate"]:
+            lowest = e
+    return best
 
 
 def no_break_point(knob: Knob, lo: float, hi: float, target: float,

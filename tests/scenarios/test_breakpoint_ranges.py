@@ -79,3 +79,28 @@ def test_the_command_reports_no_break_point_with_exit_0(monkeypatch, cli):
 def test_a_range_beyond_the_field_is_refused(knob, value_range, words):
     with pytest.raises(InputError, match=re.escape(words)):
         bp.find_breakpoint("paper", "crossbar", knob, value_range=value_range)
+
+
+def test_the_largest_rise_toward_the_bad_end_is_named(monkeypatch, cli):
+    """Success that rises toward the bad end (a dip at 0.25 here) is reported: the result's
+    largest_rise and a line of the command's output; a falling success has none."""
+    monkeypatch.setattr(bp, "run_scenario", fake_scenario(lambda v: 1.0 - v))
+    assert bp.find_breakpoint("paper", "crossbar", "read_noise", target=0.8,
+                              seeds=2)["largest_rise"] is None
+    monkeypatch.setattr(bp, "run_scenario",
+                        fake_scenario(lambda v: 0.25 if v == 0.25 else 1.0 - v))
+    r = bp.find_breakpoint("paper", "crossbar", "read_noise", target=0.8, seeds=2)
+    assert [e["value"] for e in r["evaluations"]][:3] == [0.0, 0.5, 0.25]
+    assert r["largest_rise"] == {"from": 0.25, "to": 0.5, "by": 0.25}
+    assert r["value"] == 0.1875  # the bisection's answer is unchanged: the rise is named
+    code, out, _ = cli("breakpoint", "--knob", "read_noise", "--scenario", "paper",
+                       "--backend", "crossbar", "--seeds", "2", "--target", "0.8")
+    assert code == 0 and "success rose 0.250 from 0.25 to 0.5, toward the bad end" in out
+
+
+def test_the_bad_end_is_where_the_second_evaluation_was():
+    """A knob whose good end is its high value (levels): toward the bad end is downward."""
+    evals = [{"value": v, "success_rate": s} for v, s in
+             ((1001, 1.0), (2, 0.1), (45, 0.6), (212, 0.9), (97, 0.95))]
+    assert bp.largest_rise(evals) == {"from": 212, "to": 97, "by": pytest.approx(0.05)}
+    assert bp.largest_rise(evals[:2]) is None and bp.largest_rise(evals[:1]) is None
