@@ -31,6 +31,19 @@ VIEWS = ((25.0, -60.0, "perspective", None), (90.0, -90.0, "from above (x, y)", 
 matplotlib's 3-D axes; the two flat views are orthographic, their end-on axis unlabelled."""
 
 
+def set_view(ax, elev: float, azim: float, end_on: str | None,
+             limits: tuple[float, float]) -> None:
+    """Look at 3-D axes ``ax`` as one of :data:`VIEWS` says, every axis spanning
+    ``limits``; a flat view orthographic, its end-on axis without ticks or label."""
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(*limits)
+    ax.view_init(elev=elev, azim=azim)
+    if end_on is not None:
+        ax.set_proj_type("ortho")
+        getattr(ax, f"set_{end_on}ticks")([])
+        getattr(ax, f"set_{end_on}label")("")
+
+
 def three_views(draw, limits: tuple[float, float], title: str, unit: str = ""):
     """A figure of one 3-D scene seen from :data:`VIEWS` side by side (the grid's 3-D paths,
     the drone's flights): ``draw(ax)`` draws the scene on each view's axes, every axis
@@ -40,16 +53,10 @@ def three_views(draw, limits: tuple[float, float], title: str, unit: str = ""):
     for i, (elev, azim, label, end_on) in enumerate(VIEWS):
         ax = fig.add_subplot(1, len(VIEWS), i + 1, projection="3d")
         draw(ax)
-        for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
-            setter(*limits)
         ax.set_xlabel(f"x{unit}")
         ax.set_ylabel(f"y{unit}")
         ax.set_zlabel(f"z{unit}")
-        ax.view_init(elev=elev, azim=azim)
-        if end_on is not None:
-            ax.set_proj_type("ortho")
-            getattr(ax, f"set_{end_on}ticks")([])
-            getattr(ax, f"set_{end_on}label")("")
+        set_view(ax, elev, azim, end_on, limits)
         ax.set_title(label, fontsize=9)
     fig.axes[0].legend(loc="upper left", fontsize=7, frameon=False)
     fig.suptitle(title)

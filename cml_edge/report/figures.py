@@ -123,7 +123,7 @@ def _space_figures(report: dict[str, Any], plt, save) -> None:
     """The 3-D section's figures: each device's example paths in the volume, seen from
     :data:`~cml_edge.io.figures.VIEWS` (a row each), and the break points on the plane
     beside those in the volume."""
-    from cml_edge.io.figures import VIEWS
+    from cml_edge.io.figures import VIEWS, set_view
 
     sp = report["space"]
     n = sp["arena"]
@@ -137,12 +137,7 @@ def _space_figures(report: dict[str, Any], plt, save) -> None:
                 ax.plot(*p.T, "-", lw=1.0)
                 ax.plot(*[[v] for v in p[0]], "x", color="tab:red")
                 ax.plot(*[[v] for v in p[-1]], "*", color="tab:green")
-            for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
-                setter(-0.5, n - 0.5)
-            ax.view_init(elev=elev, azim=azim)
-            if end_on is not None:
-                ax.set_proj_type("ortho")
-                getattr(ax, f"set_{end_on}ticks")([])
+            set_view(ax, elev, azim, end_on, (-0.5, n - 0.5))
             ax.tick_params(labelsize=5)
             if row == 0:
                 ax.set_title(s["label"], fontsize=7)

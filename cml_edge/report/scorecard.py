@@ -260,8 +260,7 @@ def build_scorecard(plan: ScorecardPlan, batch: Batch | None = None) -> dict[str
         results = {t.key: shared_result(t, done[owner[t.key]]) for t in ts}
         res = scenario_result(name, backend, options, plan.seeds, plan.budget, 0.0, ts,
                               results)
-        dims = res.get("dims", SPACE_DIMS)  # a world 3-D by nature (the drone) says none
-        space += [{**row, "dims": dims} for row in scorecard_rows(label, res)]
+        space += [{**row, "dims": res["dims"]} for row in scorecard_rows(label, res)]
     run_searches(searches + searches3, batch)
     breakpoints = [breakpoint_row(bp, plan, search) for bp, search in searches]
     return {"scorecard": scorecard, "breakpoints": breakpoints, "recovery": recovery,

@@ -237,6 +237,8 @@ def scenario_result(name: str, backend: str, options: dict[str, Any], seeds: int
     run = tasks[0].params.get("run", {}) if tasks else {}
     if "dims" in run:  # off the plane's king moves (:func:`in_space`)
         result.update({"dims": run["dims"], "moves": run["moves"]})
+    else:  # a world of one dimensionality (the drone's space) says its own, as a break
+        result.update(in_space(name, None, "king"))  # point's result does
     if name == "recovery":
         from cml_edge.costs.dqn import dqn_retrain_estimate
 
